@@ -1,0 +1,139 @@
+#!/usr/bin/env python3
+"""Side-by-side speed and memory of imunoise (CPU path) and its peers on the same data.
+
+Generates N samples (default 1e7) of white noise plus a random walk, writes them as an Arrow IPC file,
+then runs, each in its own process so that peak memory is its own:
+  * imunoise psd    (hann, nperseg 65536, 50% overlap)     vs scipy.signal.welch with the same options
+  * imunoise avar   (OADEV, octave taus)                     vs allantools.oadev(taus="octave")
+  * imunoise avar   (OADEV, 100 log-spaced taus)             vs allantools.oadev(taus=<the same taus>)
+and prints wall time, the estimator's own time, peak resident memory and the ratios. imunoise is run
+as the release binary, end to end (read the file, screen it, estimate, write Arrow/JSON); its
+compute-only time is taken from the timings in its results.json. The peers are timed on data already
+in memory (loading excluded), which favours them.
+
+Usage: cargo build --release && python3 scripts/compare_peers.py [--samples N] [--keep DIR]
+Needs numpy, scipy, allantools, pyarrow.
+"""
+import argparse
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+BIN = ROOT / "target" / "release" / "imunoise"
+NPERSEG = 65536
+
+
+def log_taus(n, count=100):
+    """`count` log-spaced averaging factors from 1 to the largest OADEV allows, made unique."""
+    import numpy as np
+
+    m_max = (n - 1) // 2
+    m = np.unique(np.round(np.logspace(0, np.log10(m_max), count)).astype(np.int64))
+    return [int(x) for x in m]
+
+
+def make_data(path, n):
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.ipc as ipc
+
+    rng = np.random.default_rng(1)
+    y = rng.standard_normal(n) + np.cumsum(1e-3 * rng.standard_normal(n))
+    field = pa.field("y", pa.float64(), metadata={"unit": "rad/s", "kind": "gyro"})
+    schema = pa.schema([field], metadata={"sample_rate_hz": "1"})
+    table = pa.Table.from_arrays([pa.array(y)], schema=schema)
+    with ipc.new_file(path, schema) as w:
+        for b in table.to_batches(max_chunksize=1 << 16):
+            w.write_batch(b)
+
+
+def run_measured(cmd):
+    """Runs cmd; returns (wall seconds, peak RSS MiB, stdout)."""
+    t0 = time.perf_counter()
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    out = p.stdout.read()
+    err = p.stderr.read()
+    _, status, usage = os.wait4(p.pid, 0)
+    wall = time.perf_counter() - t0
+    if os.waitstatus_to_exitcode(status) != 0:
+        sys.exit(f"{' '.join(map(str, cmd))} failed:\n{err.decode()}")
+    return wall, usage.ru_maxrss / 1024.0, out
+
+
+def worker(kind, path, taus):
+    """Runs one peer computation in this process and prints its compute time as JSON."""
+    import numpy as np
+    import pyarrow.ipc as ipc
+
+    y = ipc.open_file(path).read_all().column("y").to_numpy()
+    t0 = time.perf_counter()
+    if kind == "welch":
+        import scipy.signal
+
+        scipy.signal.welch(y, fs=1.0, window="hann", nperseg=NPERSEG, noverlap=NPERSEG // 2)
+    else:
+        import allantools
+
+        t = "octave" if kind == "oadev_octave" else np.array(taus, dtype=float)
+        allantools.oadev(y, rate=1.0, data_type="freq", taus=t)
+    print(json.dumps({"compute_s": time.perf_counter() - t0}))
+
+
+def imunoise_compute_s(out_dir):
+    doc = json.loads((out_dir / "results.json").read_text())
+    t = doc["files"][0]["timings"]
+    return t["read_s"] + t["welch_s"] + t["avar_s"]
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--samples", type=float, default=1e7)
+    ap.add_argument("--keep", type=pathlib.Path)
+    ap.add_argument("--worker", nargs=2, help=argparse.SUPPRESS)
+    ap.add_argument("--taus", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.worker:
+        worker(args.worker[0], args.worker[1], json.loads(args.taus) if args.taus else None)
+        return
+    if not BIN.exists():
+        sys.exit("build the release binary first: cargo build --release")
+    n = int(args.samples)
+    work = args.keep or pathlib.Path(tempfile.mkdtemp(prefix="imunoise-compare-"))
+    work.mkdir(parents=True, exist_ok=True)
+    data = work / "y.arrow"
+    make_data(data, n)
+    taus = log_taus(n)
+    tau_list = ",".join(str(m) for m in taus)  # rate is 1 Hz: tau in seconds = m
+
+    tasks = [
+        ("Welch hann nperseg 65536", "welch",
+         ["psd", str(data), "--nperseg", str(NPERSEG), "--bins-per-decade", "0"]),
+        ("OADEV octave taus", "oadev_octave", ["avar", str(data), "--taus", "octave"]),
+        (f"OADEV {len(taus)} log-spaced taus", "oadev_log", ["avar", str(data), "--taus", tau_list]),
+    ]
+    print(f"{n} samples, f64, {os.cpu_count()} cores; imunoise {BIN}")
+    print(f"{'task':34} {'tool':11} {'wall s':>8} {'compute s':>10} {'peak MiB':>9}")
+    for label, kind, cli in tasks:
+        out_dir = work / f"out-{kind}"
+        wall, rss, _ = run_measured([BIN, *cli, "-o", str(out_dir), "--format", "arrow,json", "--quiet"])
+        ours = imunoise_compute_s(out_dir)
+        peer_cmd = [sys.executable, __file__, "--worker", kind, str(data), "--taus", json.dumps(taus)]
+        p_wall, p_rss, p_out = run_measured(peer_cmd)
+        peer = json.loads(p_out)["compute_s"]
+        peer_name = "scipy" if kind == "welch" else "allantools"
+        print(f"{label:34} {'imunoise':11} {wall:8.3f} {ours:10.3f} {rss:9.0f}")
+        print(f"{'':34} {peer_name:11} {p_wall:8.3f} {peer:10.3f} {p_rss:9.0f}")
+        print(f"{'':34} {'ratio':11} {'':8} {peer / ours:9.1f}x (compute)  {peer / wall:.1f}x (imunoise end to end vs peer compute)")
+    if not args.keep:
+        import shutil
+
+        shutil.rmtree(work)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1 @@
+//! Allan-family variances (placeholder, being written).

@@ -1,0 +1,204 @@
+//! Command-line flags as plain values (clap derive). [`super::config`] turns them into validated
+//! library objects before any file is opened, so that a bad flag fails at once.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+/// Noise characterisation of inertial sensors: Welch PSD and Allan-family deviations of long static
+/// recordings (Arrow IPC, Parquet, CSV).
+///
+/// Values are converted to SI on reading (gyro rad/s, accel m/s^2, temperature degC), so PSDs are in
+/// (rad/s)^2/Hz or (m/s^2)^2/Hz and deviations in rad/s or m/s^2. Exit codes: 0 all inputs fine,
+/// 1 some inputs failed (the others are still processed and written), 2 usage or fatal error.
+#[derive(Debug, Parser)]
+#[command(name = "imunoise", version, max_term_width = 100)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Describe recordings: format, sample rate and its source, channels with unit and kind, rows,
+    /// duration, and the quality screen (gaps, non-finite samples, saturation, quantisation step).
+    Info(InfoArgs),
+    /// Welch power spectral density of every channel (one-sided), raw and log-frequency binned.
+    Psd(PsdArgs),
+    /// Allan-family deviations of every channel with chi-square confidence intervals.
+    Avar(AvarArgs),
+    /// PSD and Allan deviation of every channel in one pass over each file.
+    Analyze(AnalyzeArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    #[command(flatten)]
+    pub input: InputArgs,
+    #[command(flatten)]
+    pub output: OutputArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct PsdArgs {
+    #[command(flatten)]
+    pub input: InputArgs,
+    #[command(flatten)]
+    pub welch: WelchArgs,
+    #[command(flatten)]
+    pub output: OutputArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct AvarArgs {
+    #[command(flatten)]
+    pub input: InputArgs,
+    #[command(flatten)]
+    pub avar: AvarFlags,
+    #[command(flatten)]
+    pub output: OutputArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct AnalyzeArgs {
+    #[command(flatten)]
+    pub input: InputArgs,
+    #[command(flatten)]
+    pub welch: WelchArgs,
+    #[command(flatten)]
+    pub avar: AvarFlags,
+    #[command(flatten)]
+    pub output: OutputArgs,
+}
+
+/// Which files and columns, and how to read them.
+#[derive(Debug, Args)]
+#[command(next_help_heading = "Input")]
+pub struct InputArgs {
+    /// Recordings to process (.arrow/.feather/.ipc Arrow IPC file, .arrows Arrow IPC stream,
+    /// .parquet, .csv). One bad file does not stop the others.
+    #[arg(required = true, value_name = "FILE")]
+    pub files: Vec<PathBuf>,
+
+    /// Columns to analyse, comma-separated (default: every numeric column except time).
+    #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
+    pub channels: Vec<String>,
+
+    /// Sample rate in Hz, for files without `sample_rate_hz` metadata or a time column. An error if it
+    /// disagrees (by more than 0.5%) with the file.
+    #[arg(long, value_name = "HZ")]
+    pub rate: Option<f64>,
+
+    /// Unit of a column, overriding its metadata: COLUMN=UNIT, or *=UNIT for all columns. Units:
+    /// rad/s, mrad/s, deg/s, deg/h, m/s^2, g, mg, ug, degC, K, V, mV, 1. Repeatable.
+    #[arg(long = "unit", value_name = "COLUMN=UNIT")]
+    pub units: Vec<String>,
+
+    /// Kind of a column, overriding its metadata: COLUMN=KIND or *=KIND, KIND one of gyro, accel,
+    /// temperature, aux. Repeatable.
+    #[arg(long = "kind", value_name = "COLUMN=KIND")]
+    pub kinds: Vec<String>,
+
+    /// Name of the time column (Arrow timestamp, float seconds, or integer ticks with metadata unit
+    /// s/ms/us/ns). Default: a timestamp-typed column, else one named time, timestamp, t or time_s.
+    #[arg(long, value_name = "NAME", conflicts_with = "no_time")]
+    pub time_column: Option<String>,
+
+    /// Ignore any time column (no gap checks; the rate must come from metadata or --rate).
+    #[arg(long)]
+    pub no_time: bool,
+
+    /// What to do with NaN, infinite or null samples: error (stop, naming the row), drop (remove the
+    /// row), interpolate (straight line between finite neighbours).
+    #[arg(long, default_value = "error", value_name = "POLICY")]
+    pub on_nonfinite: String,
+
+    /// What to do where the time column shows missing samples (an interval over 1.5 sample periods):
+    /// error (stop, naming the row), ignore (report, analyse as contiguous), fill (insert linearly
+    /// interpolated samples).
+    #[arg(long, default_value = "error", value_name = "POLICY")]
+    pub on_gap: String,
+
+    /// Rows per record batch read from CSV and Parquet files (Arrow IPC files keep their own batches).
+    #[arg(long, default_value_t = imunoise::io::DEFAULT_BATCH_ROWS, value_name = "ROWS")]
+    pub batch_rows: usize,
+}
+
+/// Welch PSD options; the same meaning and defaults as scipy.signal.welch where it has them.
+#[derive(Debug, Args)]
+#[command(next_help_heading = "Welch PSD")]
+pub struct WelchArgs {
+    /// Window: hann, hamming, blackman, blackmanharris, flattop, boxcar (periodic, as scipy).
+    #[arg(long, default_value = "hann", value_name = "NAME")]
+    pub window: String,
+
+    /// Segment length in samples; the frequency resolution is rate/nperseg Hz.
+    #[arg(long, default_value_t = 4096, value_name = "SAMPLES")]
+    pub nperseg: usize,
+
+    /// Overlap between segments in samples (default nperseg/2).
+    #[arg(long, value_name = "SAMPLES")]
+    pub noverlap: Option<usize>,
+
+    /// FFT length in samples, >= nperseg (zero padding; default nperseg).
+    #[arg(long, value_name = "SAMPLES")]
+    pub nfft: Option<usize>,
+
+    /// Detrend each segment: constant (remove the mean), linear (remove a least-squares line), none.
+    #[arg(long, default_value = "constant", value_name = "MODE")]
+    pub detrend: String,
+
+    /// density: unit^2/Hz (divide by rate·Σw²); spectrum: unit^2 (divide by (Σw)², for line amplitudes).
+    #[arg(long, default_value = "density", value_name = "SCALING")]
+    pub scaling: String,
+
+    /// Average of the segment periodograms: mean, or median (robust to bursts; bias-corrected as scipy).
+    #[arg(long, default_value = "mean", value_name = "AVERAGE")]
+    pub average: String,
+
+    /// Log-frequency bins per decade for the binned spectrum (psd_binned table); 0 for none.
+    #[arg(long, default_value_t = 20, value_name = "N")]
+    pub bins_per_decade: u32,
+}
+
+/// Allan-family options.
+#[derive(Debug, Args)]
+#[command(next_help_heading = "Allan deviation")]
+pub struct AvarFlags {
+    /// Statistics, comma-separated: oadev (overlapping Allan), adev (non-overlapping Allan), mdev
+    /// (modified Allan), hdev (overlapping Hadamard, insensitive to a rate ramp).
+    #[arg(long = "stat", default_value = "oadev", value_delimiter = ',', value_name = "STAT,...")]
+    pub statistics: Vec<String>,
+
+    /// Tau grid: octave (m = 1, 2, 4, ...), decade (1-2-5 per decade), N-per-decade (N log-spaced
+    /// per decade, e.g. 10-per-decade), all (every m), or a comma-separated list of tau in seconds
+    /// (each rounded to a whole number of sample periods).
+    #[arg(long, default_value = "octave", value_name = "GRID")]
+    pub taus: String,
+
+    /// Two-sided confidence of the intervals, in (0, 1); 1sigma = 0.6827.
+    #[arg(long, default_value = "1sigma", value_name = "LEVEL")]
+    pub confidence: String,
+}
+
+/// Where results go.
+#[derive(Debug, Args)]
+#[command(next_help_heading = "Output")]
+pub struct OutputArgs {
+    /// Output folder (created if needed). Files are written under temporary names and renamed, so a
+    /// run that fails leaves earlier results intact.
+    #[arg(short, long, default_value = "imunoise-out", value_name = "DIR")]
+    pub out: PathBuf,
+
+    /// Table formats written into the output folder, comma-separated: arrow, csv, json.
+    #[arg(long, default_value = "arrow,csv,json", value_delimiter = ',', value_name = "FMT,...")]
+    pub format: Vec<String>,
+
+    /// Print the JSON document on stdout instead of writing the output folder.
+    #[arg(long)]
+    pub json: bool,
+
+    /// No progress bar and no per-file lines on stderr (errors are still printed).
+    #[arg(short, long)]
+    pub quiet: bool,
+}

@@ -1,0 +1,237 @@
+//! From plain flags to a validated job: every flag parsed, every plan built, before any file is read.
+
+use std::path::PathBuf;
+
+use imunoise::avar::{Confidence, Statistic, TauGrid};
+use imunoise::io::{ColumnOverrides, OpenOptions};
+use imunoise::pipeline::{AvarWork, Inputs, TauSpec, WelchWork, Work};
+use imunoise::psd::WelchConfig;
+use imunoise::quality::QualityOptions;
+use imunoise::report::Formats;
+use imunoise::units::{Kind, Unit};
+use serde_json::{json, Value};
+
+use super::args::{AvarFlags, Cli, Command, InputArgs, OutputArgs, WelchArgs};
+
+/// A usage error: a flag that does not parse or makes no sense (exit code 2).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct UsageError(pub String);
+
+fn usage(e: impl std::fmt::Display) -> UsageError {
+    UsageError(e.to_string())
+}
+
+/// Where and how results are written.
+#[derive(Debug, Clone)]
+pub struct OutputConfig {
+    pub dir: PathBuf,
+    pub formats: Formats,
+    pub json_stdout: bool,
+    pub quiet: bool,
+}
+
+/// A validated run.
+#[derive(Debug, Clone)]
+pub struct Job {
+    pub command: &'static str,
+    pub files: Vec<PathBuf>,
+    pub inputs: Inputs,
+    pub work: Work,
+    pub output: OutputConfig,
+    /// The options as recorded in the output document.
+    pub options: Value,
+}
+
+pub fn job(cli: Cli) -> Result<Job, UsageError> {
+    let (command, input, welch, avar, output) = match cli.command {
+        Command::Info(a) => ("info", a.input, None, None, a.output),
+        Command::Psd(a) => ("psd", a.input, Some(a.welch), None, a.output),
+        Command::Avar(a) => ("avar", a.input, None, Some(a.avar), a.output),
+        Command::Analyze(a) => ("analyze", a.input, Some(a.welch), Some(a.avar), a.output),
+    };
+    let mut options = serde_json::Map::new();
+    let inputs = inputs(&input, &mut options)?;
+    let welch = welch.map(|w| welch_work(&w, &mut options)).transpose()?;
+    let avar = avar.map(|a| avar_work(&a, &mut options)).transpose()?;
+    Ok(Job {
+        command,
+        files: input.files,
+        inputs,
+        work: Work { welch, avar },
+        output: output_config(&output)?,
+        options: Value::Object(options),
+    })
+}
+
+fn pairs<T: std::str::FromStr>(entries: &[String], what: &str) -> Result<Vec<(String, T)>, UsageError>
+where
+    T::Err: std::fmt::Display,
+{
+    entries
+        .iter()
+        .map(|e| {
+            let (col, value) = e
+                .split_once('=')
+                .ok_or_else(|| usage(format!("--{what} {e:?}: expected COLUMN={}", what.to_uppercase())))?;
+            let parsed = value
+                .trim()
+                .parse::<T>()
+                .map_err(|err| usage(format!("--{what} {e:?}: {err}")))?;
+            Ok((col.trim().to_string(), parsed))
+        })
+        .collect()
+}
+
+fn inputs(a: &InputArgs, options: &mut serde_json::Map<String, Value>) -> Result<Inputs, UsageError> {
+    if let Some(r) = a.rate {
+        if !(r.is_finite() && r > 0.0) {
+            return Err(usage(format!("--rate {r}: must be a positive number of Hz")));
+        }
+    }
+    if a.batch_rows == 0 {
+        return Err(usage("--batch-rows must be at least 1"));
+    }
+    let quality = QualityOptions {
+        nonfinite: a.on_nonfinite.parse().map_err(|e| usage(format!("--on-nonfinite: {e}")))?,
+        gaps: a.on_gap.parse().map_err(|e| usage(format!("--on-gap: {e}")))?,
+    };
+    let columns = ColumnOverrides {
+        channels: a.channels.clone(),
+        units: pairs::<Unit>(&a.units, "unit")?,
+        kinds: pairs::<Kind>(&a.kinds, "kind")?,
+        time_column: a.time_column.clone(),
+        ignore_time: a.no_time,
+    };
+    options.insert(
+        "input".into(),
+        json!({
+            "channels": a.channels, "rate_hz": a.rate, "units": a.units, "kinds": a.kinds,
+            "time_column": a.time_column, "no_time": a.no_time,
+            "on_nonfinite": quality.nonfinite, "on_gap": quality.gaps,
+        }),
+    );
+    Ok(Inputs {
+        open: OpenOptions {
+            columns,
+            rate_hz: a.rate,
+            batch_rows: a.batch_rows,
+        },
+        quality,
+    })
+}
+
+fn welch_work(a: &WelchArgs, options: &mut serde_json::Map<String, Value>) -> Result<WelchWork, UsageError> {
+    let config = WelchConfig {
+        window: a.window.parse().map_err(|e| usage(format!("--window: {e}")))?,
+        nperseg: a.nperseg,
+        noverlap: a.noverlap,
+        nfft: a.nfft,
+        detrend: a.detrend.parse().map_err(|e| usage(format!("--detrend: {e}")))?,
+        scaling: a.scaling.parse().map_err(|e| usage(format!("--scaling: {e}")))?,
+        average: a.average.parse().map_err(|e| usage(format!("--average: {e}")))?,
+    };
+    let plan = config.validate().map_err(usage)?;
+    options.insert(
+        "welch".into(),
+        json!({
+            "window": a.window, "nperseg": plan.nperseg(), "noverlap": plan.noverlap(),
+            "nfft": plan.nfft(), "detrend": a.detrend, "scaling": a.scaling, "average": a.average,
+            "bins_per_decade": a.bins_per_decade,
+        }),
+    );
+    Ok(WelchWork {
+        plan,
+        bins_per_decade: (a.bins_per_decade > 0).then_some(a.bins_per_decade),
+    })
+}
+
+/// `octave`, `decade`, `N-per-decade`, `all`, or τ in seconds.
+pub fn tau_spec(text: &str) -> Result<TauSpec, UsageError> {
+    let t = text.trim();
+    let grid = match t {
+        "octave" => Some(TauGrid::Octave),
+        "decade" => Some(TauGrid::Decade125),
+        "all" => Some(TauGrid::All),
+        _ => match t.strip_suffix("-per-decade") {
+            Some(n) => {
+                let n: u32 = n.parse().map_err(|_| usage(format!("--taus {t:?}: N-per-decade needs a whole N")))?;
+                if n == 0 {
+                    return Err(usage("--taus: N-per-decade needs N >= 1"));
+                }
+                Some(TauGrid::PerDecade(n))
+            }
+            None => None,
+        },
+    };
+    if let Some(g) = grid {
+        return Ok(TauSpec::Grid(g));
+    }
+    let seconds: Vec<f64> = t
+        .split(',')
+        .map(|s| s.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| {
+            usage(format!(
+                "--taus {t:?}: expected octave, decade, N-per-decade, all, or tau in seconds like 0.1,1,10"
+            ))
+        })?;
+    if seconds.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+        return Err(usage(format!("--taus {t:?}: every tau must be a positive number of seconds")));
+    }
+    Ok(TauSpec::Seconds(seconds))
+}
+
+pub fn confidence(text: &str) -> Result<Confidence, UsageError> {
+    match text.trim() {
+        "1sigma" => Ok(Confidence::OneSigma),
+        t => match t.parse::<f64>() {
+            Ok(p) if p > 0.0 && p < 1.0 => Ok(Confidence::Level(p)),
+            _ => Err(usage(format!("--confidence {t:?}: expected 1sigma or a level in (0, 1)"))),
+        },
+    }
+}
+
+fn avar_work(a: &AvarFlags, options: &mut serde_json::Map<String, Value>) -> Result<AvarWork, UsageError> {
+    let statistics: Vec<Statistic> = a
+        .statistics
+        .iter()
+        .map(|s| s.trim().parse::<Statistic>().map_err(|e| usage(format!("--stat: {e}"))))
+        .collect::<Result<_, _>>()?;
+    if statistics.is_empty() {
+        return Err(usage("--stat: name at least one statistic"));
+    }
+    let taus = tau_spec(&a.taus)?;
+    let confidence = confidence(&a.confidence)?;
+    options.insert(
+        "avar".into(),
+        json!({ "statistics": a.statistics, "taus": a.taus, "confidence": a.confidence }),
+    );
+    Ok(AvarWork {
+        statistics,
+        taus,
+        confidence,
+    })
+}
+
+fn output_config(a: &OutputArgs) -> Result<OutputConfig, UsageError> {
+    let mut formats = Formats {
+        arrow: false,
+        csv: false,
+        json: false,
+    };
+    for f in &a.format {
+        match f.trim() {
+            "arrow" => formats.arrow = true,
+            "csv" => formats.csv = true,
+            "json" => formats.json = true,
+            other => return Err(usage(format!("--format {other:?}: expected arrow, csv or json"))),
+        }
+    }
+    Ok(OutputConfig {
+        dir: a.out.clone(),
+        formats,
+        json_stdout: a.json,
+        quiet: a.quiet,
+    })
+}

@@ -1,0 +1,191 @@
+//! Running a validated job over its files, reporting progress and writing the outputs.
+
+use std::io::{IsTerminal, Write};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use imunoise::estimate::{Backend, CpuBackend};
+use imunoise::pipeline::{self, FileResult, Progress};
+use imunoise::report::{self, OutputError};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use super::config::Job;
+
+/// Exit codes (as ripgrep): all fine, some inputs failed, usage or fatal error.
+pub const EXIT_OK: i32 = 0;
+pub const EXIT_SOME_FAILED: i32 = 1;
+pub const EXIT_FATAL: i32 = 2;
+
+/// A progress bar on stderr when it is a terminal; nothing in a pipe or with --quiet.
+struct Bar {
+    bar: Option<ProgressBar>,
+    index: std::cell::Cell<usize>,
+    total: usize,
+}
+
+impl Bar {
+    fn new(total: usize, quiet: bool) -> Self {
+        let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
+            let b = ProgressBar::new_spinner();
+            b.set_style(
+                ProgressStyle::with_template("{spinner} {msg} {human_pos} rows ({per_sec}) {elapsed}")
+                    .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+            );
+            b.enable_steady_tick(Duration::from_millis(200));
+            b
+        });
+        Bar {
+            bar,
+            index: std::cell::Cell::new(0),
+            total,
+        }
+    }
+
+    /// Prints a line without tearing the bar.
+    fn line(&self, text: &str) {
+        match &self.bar {
+            Some(b) => b.suspend(|| eprintln!("{text}")),
+            None => eprintln!("{text}"),
+        }
+    }
+}
+
+impl Progress for Bar {
+    fn start(&self, path: &Path) {
+        self.index.set(self.index.get() + 1);
+        if let Some(b) = &self.bar {
+            b.set_position(0);
+            b.set_message(format!("[{}/{}] {}", self.index.get(), self.total, path.display()));
+        }
+    }
+    fn advance(&self, rows: u64) {
+        if let Some(b) = &self.bar {
+            b.inc(rows);
+        }
+    }
+}
+
+fn summary_line(r: &FileResult) -> String {
+    let q = &r.quality;
+    let mut notes = Vec::new();
+    if q.gap_count > 0 {
+        notes.push(format!("{} gaps ({} samples missing)", q.gap_count, q.missing_samples));
+    }
+    let nonfinite: u64 = q.channels.iter().map(|c| c.nonfinite_samples).sum();
+    if nonfinite > 0 {
+        notes.push(format!("{nonfinite} non-finite samples ({})", q.nonfinite_policy));
+    }
+    for c in q.channels.iter().filter(|c| c.summary.possibly_saturated) {
+        notes.push(format!("{} possibly saturated", c.name));
+    }
+    let notes = if notes.is_empty() {
+        String::new()
+    } else {
+        format!("; {}", notes.join(", "))
+    };
+    format!(
+        "ok    {}: {} channels, {} samples at {} Hz ({:.1} s){notes}",
+        r.recording.path.display(),
+        r.recording.channels.len(),
+        q.samples_out,
+        r.recording.rate_hz,
+        q.duration_s,
+    )
+}
+
+/// Runs the job; returns the process exit code.
+pub fn run(job: &Job) -> i32 {
+    let started = Instant::now();
+    let backend = CpuBackend;
+    let bar = Bar::new(job.files.len(), job.output.quiet);
+    if !job.output.json_stdout {
+        if let Err(e) = std::fs::create_dir_all(&job.output.dir) {
+            eprintln!("imunoise: cannot create output folder {}: {e}", job.output.dir.display());
+            return EXIT_FATAL;
+        }
+    }
+    let mut ok: Vec<FileResult> = Vec::new();
+    let mut entries = Vec::new();
+    let mut failed = 0;
+    for path in &job.files {
+        match pipeline::run(path, &job.inputs, &job.work, &backend, &bar) {
+            Ok(r) => {
+                if !job.output.quiet {
+                    bar.line(&summary_line(&r));
+                }
+                entries.push(report::file_json(&r));
+                ok.push(r);
+            }
+            Err(e) => {
+                failed += 1;
+                bar.line(&format!("error {e}"));
+                entries.push(report::error_json(path, &e));
+            }
+        }
+    }
+    if let Some(b) = &bar.bar {
+        b.finish_and_clear();
+    }
+    let doc = report::document(
+        job.command,
+        &backend.describe(),
+        job.options.clone(),
+        entries,
+        started.elapsed().as_secs_f64(),
+    );
+    let written = if job.output.json_stdout {
+        print_json(&doc)
+    } else {
+        write_outputs(job, &ok, &doc)
+    };
+    if let Err(e) = written {
+        eprintln!("imunoise: {e}");
+        return EXIT_FATAL;
+    }
+    if !job.output.quiet && !job.output.json_stdout {
+        eprintln!(
+            "{} of {} files ok; results in {}",
+            job.files.len() - failed,
+            job.files.len(),
+            job.output.dir.display()
+        );
+    }
+    if failed > 0 {
+        EXIT_SOME_FAILED
+    } else {
+        EXIT_OK
+    }
+}
+
+/// Prints the document; a closed pipe (`| head`) is not an error.
+fn print_json(doc: &serde_json::Value) -> Result<(), OutputError> {
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    let result = serde_json::to_writer_pretty(&mut out, doc)
+        .map_err(std::io::Error::from)
+        .and_then(|_| writeln!(out))
+        .and_then(|_| out.flush());
+    match result {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(OutputError::new(Path::new("<stdout>"), e))
+        }
+        _ => Ok(()),
+    }
+}
+
+fn write_outputs(job: &Job, ok: &[FileResult], doc: &serde_json::Value) -> Result<(), OutputError> {
+    let dir = &job.output.dir;
+    let refs: Vec<&FileResult> = ok.iter().collect();
+    let formats = job.output.formats;
+    if job.work.welch.is_some() {
+        report::write_table(dir, "psd", &report::psd_table(&refs), formats)?;
+        report::write_table(dir, "psd_binned", &report::psd_binned_table(&refs), formats)?;
+    }
+    if job.work.avar.is_some() {
+        report::write_table(dir, "avar", &report::avar_table(&refs), formats)?;
+    }
+    if formats.json {
+        report::write_json(&dir.join("results.json"), doc)?;
+    }
+    Ok(())
+}

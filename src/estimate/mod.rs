@@ -1,0 +1,57 @@
+//! Estimator backends: one interface, implemented on the CPU now and on the GPU later.
+//!
+//! Like a planner in an FFT library, [`Backend`] is chosen once per run (knowing the hardware) and hands
+//! out per-recording work: a streaming Welch sink fed block by block, and Allan-family variances of
+//! whole channels. The CPU backend is the reference every other backend is tested against.
+
+mod cpu;
+
+use std::fmt;
+
+use serde::Serialize;
+
+use crate::avar::{AvarError, Confidence, Deviations, Statistic, TauGrid};
+use crate::psd::{Psd, PsdError, WelchPlan};
+
+pub use cpu::CpuBackend;
+
+/// Which implementation computed a result; written into every output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BackendKind {
+    Cpu,
+}
+
+impl fmt::Display for BackendKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            BackendKind::Cpu => "cpu",
+        })
+    }
+}
+
+/// A Welch estimate in progress over all channels of one recording.
+pub trait WelchSink: Send {
+    /// Adds consecutive samples: one slice per channel, all of equal length.
+    fn push(&mut self, chunk: &[&[f64]]);
+    /// The PSD of every channel, in channel order.
+    fn finish(self: Box<Self>) -> Result<Vec<Psd>, PsdError>;
+}
+
+/// An estimator backend.
+pub trait Backend: Send + Sync {
+    fn kind(&self) -> BackendKind;
+    /// A human-readable description (device, threads), for logs and output metadata.
+    fn describe(&self) -> String;
+    /// Starts a streaming Welch estimate for `channels` channels sampled at `rate_hz`.
+    fn welch(&self, plan: &WelchPlan, rate_hz: f64, channels: usize) -> Box<dyn WelchSink>;
+    /// One Allan-family statistic of each channel.
+    fn deviations(
+        &self,
+        channels: &[Vec<f64>],
+        rate_hz: f64,
+        grid: &TauGrid,
+        statistic: Statistic,
+        confidence: Confidence,
+    ) -> Vec<Result<Deviations, AvarError>>;
+}

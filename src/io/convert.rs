@@ -1,0 +1,123 @@
+//! Arrow arrays to `f64` samples in SI units, and time columns to seconds.
+
+use arrow_array::cast::AsArray;
+use arrow_array::types::*;
+use arrow_array::{Array, ArrayRef, ArrowPrimitiveType};
+use arrow_schema::DataType;
+
+use super::channels::{TimeEncoding, TimeSpec};
+
+/// Appends `array`'s values to `out` as `v · factor + offset`; a null becomes NaN so that the quality
+/// stage reports it like any other missing sample.
+///
+/// Returns false when the array's type is not a sample type (the caller checked the schema, so this
+/// only happens for a file whose batches contradict its own schema).
+pub fn append_samples(array: &ArrayRef, factor: f64, offset: f64, out: &mut Vec<f64>) -> bool {
+    fn push<T: ArrowPrimitiveType>(
+        array: &ArrayRef,
+        out: &mut Vec<f64>,
+        f: impl Fn(T::Native) -> f64,
+    ) {
+        let a = array.as_primitive::<T>();
+        if a.null_count() == 0 {
+            out.extend(a.values().iter().map(|&v| f(v)));
+        } else {
+            out.extend(a.iter().map(|v| v.map(&f).unwrap_or(f64::NAN)));
+        }
+    }
+    let lin = |v: f64| v * factor + offset;
+    match array.data_type() {
+        DataType::Float64 => push::<Float64Type>(array, out, |v| lin(v)),
+        DataType::Float32 => push::<Float32Type>(array, out, |v| lin(v as f64)),
+        DataType::Int8 => push::<Int8Type>(array, out, |v| lin(v as f64)),
+        DataType::Int16 => push::<Int16Type>(array, out, |v| lin(v as f64)),
+        DataType::Int32 => push::<Int32Type>(array, out, |v| lin(v as f64)),
+        DataType::Int64 => push::<Int64Type>(array, out, |v| lin(v as f64)),
+        DataType::UInt8 => push::<UInt8Type>(array, out, |v| lin(v as f64)),
+        DataType::UInt16 => push::<UInt16Type>(array, out, |v| lin(v as f64)),
+        DataType::UInt32 => push::<UInt32Type>(array, out, |v| lin(v as f64)),
+        DataType::UInt64 => push::<UInt64Type>(array, out, |v| lin(v as f64)),
+        _ => return false,
+    }
+    true
+}
+
+/// Converts time values to seconds since `origin`, the file's first timestamp in its own ticks.
+///
+/// Integer ticks are subtracted as integers before the conversion to f64, so nanosecond epoch
+/// timestamps (~1.7e18) keep their resolution. A null timestamp becomes NaN and is reported as
+/// non-monotonic time by the quality stage.
+pub struct TimeDecoder {
+    encoding: TimeEncoding,
+    origin_ticks: Option<i64>,
+    origin_seconds: Option<f64>,
+}
+
+impl TimeDecoder {
+    pub fn new(spec: &TimeSpec) -> Self {
+        TimeDecoder {
+            encoding: spec.encoding,
+            origin_ticks: None,
+            origin_seconds: None,
+        }
+    }
+
+    /// Appends seconds since the first timestamp; false for an unexpected array type.
+    pub fn append(&mut self, array: &ArrayRef, out: &mut Vec<f64>) -> bool {
+        match self.encoding {
+            TimeEncoding::Seconds => {
+                let start = out.len();
+                let ok = append_samples(array, 1.0, 0.0, out);
+                if let Some(&first) = out[start..].iter().find(|v| v.is_finite()) {
+                    let origin = *self.origin_seconds.get_or_insert(first);
+                    for v in &mut out[start..] {
+                        *v -= origin;
+                    }
+                }
+                ok
+            }
+            TimeEncoding::Timestamp { seconds_per_tick }
+            | TimeEncoding::IntegerTicks { seconds_per_tick } => {
+                let Some(ticks) = integer_ticks(array) else {
+                    return false;
+                };
+                for t in ticks {
+                    match t {
+                        Some(t) => {
+                            let origin = *self.origin_ticks.get_or_insert(t);
+                            out.push(t.wrapping_sub(origin) as f64 * seconds_per_tick);
+                        }
+                        None => out.push(f64::NAN),
+                    }
+                }
+                true
+            }
+        }
+    }
+}
+
+fn integer_ticks(array: &ArrayRef) -> Option<Vec<Option<i64>>> {
+    fn collect<T: ArrowPrimitiveType>(a: &ArrayRef, f: impl Fn(T::Native) -> i64) -> Vec<Option<i64>> {
+        a.as_primitive::<T>().iter().map(|v| v.map(&f)).collect()
+    }
+    Some(match array.data_type() {
+        DataType::Timestamp(unit, _) => {
+            use arrow_schema::TimeUnit::*;
+            match unit {
+                Second => collect::<TimestampSecondType>(array, |v| v),
+                Millisecond => collect::<TimestampMillisecondType>(array, |v| v),
+                Microsecond => collect::<TimestampMicrosecondType>(array, |v| v),
+                Nanosecond => collect::<TimestampNanosecondType>(array, |v| v),
+            }
+        }
+        DataType::Int8 => collect::<Int8Type>(array, |v| v as i64),
+        DataType::Int16 => collect::<Int16Type>(array, |v| v as i64),
+        DataType::Int32 => collect::<Int32Type>(array, |v| v as i64),
+        DataType::Int64 => collect::<Int64Type>(array, |v| v),
+        DataType::UInt8 => collect::<UInt8Type>(array, |v| v as i64),
+        DataType::UInt16 => collect::<UInt16Type>(array, |v| v as i64),
+        DataType::UInt32 => collect::<UInt32Type>(array, |v| v as i64),
+        DataType::UInt64 => collect::<UInt64Type>(array, |v| v as i64),
+        _ => return None,
+    })
+}

@@ -1,0 +1,157 @@
+//! Input errors. Every variant names the file and, where one is involved, the column and the row, because
+//! a user with a hundred recordings in a batch needs to find the bad sample without opening a debugger.
+//!
+//! Rows are 0-based indices of data rows (the header of a CSV file is not a row).
+
+use std::path::PathBuf;
+
+/// Something wrong with an input file.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum InputError {
+    #[error("{path}: file not found")]
+    NotFound { path: PathBuf },
+    #[error("{path}: cannot read: {message}")]
+    Unreadable { path: PathBuf, message: String },
+    #[error("{path}: file is empty")]
+    Empty { path: PathBuf },
+    #[error("{path}: not a recognised format (expected .arrow/.feather/.ipc, .arrows, .parquet or .csv)")]
+    UnknownFormat { path: PathBuf },
+    #[error("{path}: corrupt or truncated {format} file{}: {message}", at_row(*.row))]
+    Corrupt {
+        path: PathBuf,
+        format: &'static str,
+        row: Option<u64>,
+        message: String,
+    },
+    #[error("{path}: no numeric column to analyse (columns: {columns})")]
+    NoNumericColumn { path: PathBuf, columns: String },
+    #[error("{path}: column {column:?} not found (numeric columns: {available})")]
+    UnknownColumn {
+        path: PathBuf,
+        column: String,
+        available: String,
+    },
+    #[error("{path}: column {column:?} has type {data_type}, which is not a numeric sample type")]
+    UnsupportedType {
+        path: PathBuf,
+        column: String,
+        data_type: String,
+    },
+    #[error("{path}: column {column:?}: {message}")]
+    BadMetadata {
+        path: PathBuf,
+        column: String,
+        message: String,
+    },
+    #[error("{path}: column {column:?}, row {row}: non-finite sample ({value}); use --on-nonfinite drop|interpolate to continue")]
+    NonFinite {
+        path: PathBuf,
+        column: String,
+        row: u64,
+        value: String,
+    },
+    #[error("{path}: column {column:?}, row {row}: timestamp {this_s} s repeats the previous one")]
+    DuplicateTimestamp {
+        path: PathBuf,
+        column: String,
+        row: u64,
+        this_s: f64,
+    },
+    #[error("{path}: column {column:?}, row {row}: timestamp {this_s} s goes back from {previous_s} s")]
+    NonMonotonicTime {
+        path: PathBuf,
+        column: String,
+        row: u64,
+        previous_s: f64,
+        this_s: f64,
+    },
+    #[error("{path}: column {column:?}, row {row}: gap of {gap_s} s ({missing} samples missing) after t = {after_s} s; use --on-gap ignore|fill to continue")]
+    Gap {
+        path: PathBuf,
+        column: String,
+        row: u64,
+        after_s: f64,
+        gap_s: f64,
+        missing: u64,
+    },
+    #[error("{path}: sample rate conflict: {first} but {second}")]
+    RateConflict {
+        path: PathBuf,
+        first: String,
+        second: String,
+    },
+    #[error("{path}: no sample rate: add schema metadata sample_rate_hz, a time column, or pass --rate")]
+    NoRate { path: PathBuf },
+    #[error("{path}: invalid sample rate {rate_hz} Hz from {source_name}")]
+    InvalidRate {
+        path: PathBuf,
+        rate_hz: f64,
+        source_name: String,
+    },
+    #[error("{path}: {what} needs at least {needed} samples, the recording has {available}")]
+    TooShort {
+        path: PathBuf,
+        what: String,
+        needed: u64,
+        available: u64,
+    },
+}
+
+fn at_row(row: Option<u64>) -> String {
+    row.map(|r| format!(" at row {r}")).unwrap_or_default()
+}
+
+impl InputError {
+    /// The file the error is about.
+    pub fn path(&self) -> &std::path::Path {
+        use InputError::*;
+        match self {
+            NotFound { path }
+            | Unreadable { path, .. }
+            | Empty { path }
+            | UnknownFormat { path }
+            | Corrupt { path, .. }
+            | NoNumericColumn { path, .. }
+            | UnknownColumn { path, .. }
+            | UnsupportedType { path, .. }
+            | BadMetadata { path, .. }
+            | NonFinite { path, .. }
+            | DuplicateTimestamp { path, .. }
+            | NonMonotonicTime { path, .. }
+            | Gap { path, .. }
+            | RateConflict { path, .. }
+            | NoRate { path }
+            | InvalidRate { path, .. }
+            | TooShort { path, .. } => path,
+        }
+    }
+
+    /// The column involved, when one is.
+    pub fn column(&self) -> Option<&str> {
+        use InputError::*;
+        match self {
+            UnknownColumn { column, .. }
+            | UnsupportedType { column, .. }
+            | BadMetadata { column, .. }
+            | NonFinite { column, .. }
+            | DuplicateTimestamp { column, .. }
+            | NonMonotonicTime { column, .. }
+            | Gap { column, .. } => Some(column),
+            _ => None,
+        }
+    }
+
+    /// The row involved (0-based data row), when one is.
+    pub fn row(&self) -> Option<u64> {
+        use InputError::*;
+        match self {
+            NonFinite { row, .. }
+            | DuplicateTimestamp { row, .. }
+            | NonMonotonicTime { row, .. }
+            | Gap { row, .. } => Some(*row),
+            Corrupt { row, .. } => *row,
+            _ => None,
+        }
+    }
+}

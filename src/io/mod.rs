@@ -1,0 +1,306 @@
+//! Reading recordings: Arrow IPC file and stream, Parquet and CSV, in record batches with only the
+//! needed columns decoded.
+//!
+//! [`open`] reads the schema, picks the channels and the time column and settles the sample rate;
+//! [`Recording::blocks`] then streams the samples, converted to SI, block by block. Nothing here holds a
+//! whole file in memory: a block is one record batch.
+
+mod batches;
+mod channels;
+mod convert;
+mod error;
+mod format;
+
+use std::path::{Path, PathBuf};
+
+use arrow_schema::SchemaRef;
+use serde::Serialize;
+
+pub use batches::{split_header_unit, DEFAULT_BATCH_ROWS};
+pub use channels::{ChannelSpec, ColumnOverrides, TimeEncoding, TimeSpec};
+pub use error::InputError;
+pub use format::Format;
+
+use batches::Batches;
+use convert::{append_samples, TimeDecoder};
+
+/// Relative disagreement between two sources of the sample rate above which they conflict. Real clocks
+/// are off their nominal rate by parts per million to a few parts per thousand; a wrong rate in a file
+/// (200 Hz written for 207 Hz) is off by percent.
+pub const RATE_TOLERANCE: f64 = 5e-3;
+
+/// Timestamps read from the start of the time column to estimate the rate (the median interval, then the
+/// mean of the intervals near it, which is robust to gaps and to timestamps rounded coarser than the
+/// sample period).
+const RATE_PROBE_SAMPLES: usize = 1 << 20;
+
+/// How a recording is to be opened.
+#[derive(Debug, Clone)]
+pub struct OpenOptions {
+    pub columns: ColumnOverrides,
+    /// `--rate`: used when the file has no rate; an error if it disagrees with the file.
+    pub rate_hz: Option<f64>,
+    /// Rows per record batch, for the formats that let the reader choose.
+    pub batch_rows: usize,
+}
+
+impl Default for OpenOptions {
+    fn default() -> Self {
+        OpenOptions {
+            columns: ColumnOverrides::default(),
+            rate_hz: None,
+            batch_rows: DEFAULT_BATCH_ROWS,
+        }
+    }
+}
+
+/// Where the sample rate came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RateSource {
+    /// Schema metadata `sample_rate_hz`.
+    Metadata,
+    /// The time column's intervals.
+    TimeColumn,
+    /// The `--rate` flag.
+    Flag,
+}
+
+/// An opened recording: what is in it and how to read it. Cheap to hold; samples come from
+/// [`Recording::blocks`].
+#[derive(Debug, Clone, Serialize)]
+pub struct Recording {
+    pub path: PathBuf,
+    pub format: Format,
+    #[serde(skip)]
+    pub schema: SchemaRef,
+    pub channels: Vec<ChannelSpec>,
+    pub time: Option<TimeSpec>,
+    pub rate_hz: f64,
+    pub rate_source: RateSource,
+    /// The rate the time column implies, when there is one (kept to report clock offsets).
+    pub rate_from_time_hz: Option<f64>,
+    #[serde(skip)]
+    batch_rows: usize,
+}
+
+/// Opens a recording: schema, channels, time column and sample rate. Reads at most the first
+/// [`RATE_PROBE_SAMPLES`] timestamps; no channel data.
+pub fn open(path: &Path, options: &OpenOptions) -> Result<Recording, InputError> {
+    if !path.exists() {
+        return Err(InputError::NotFound {
+            path: path.to_path_buf(),
+        });
+    }
+    let format = Format::from_extension(path)
+        .or_else(|| Format::sniff(path))
+        .ok_or_else(|| InputError::UnknownFormat {
+            path: path.to_path_buf(),
+        })?;
+    let schema = batches::read_schema(path, format)?;
+    let time = channels::find_time(path, &schema, &options.columns)?;
+    let channels = channels::select_channels(path, &schema, time.as_ref(), &options.columns)?;
+    let batch_rows = options.batch_rows.max(1);
+
+    let from_metadata = match schema.metadata().get("sample_rate_hz") {
+        Some(text) => Some(parse_rate(path, text, "schema metadata sample_rate_hz")?),
+        None => None,
+    };
+    let from_time = match &time {
+        Some(spec) => rate_from_time(path, format, &schema, spec, batch_rows)?,
+        None => None,
+    };
+    if let Some(r) = options.rate_hz {
+        check_rate(path, r, "--rate")?;
+    }
+    let candidates = [
+        (from_metadata, RateSource::Metadata, "schema metadata says"),
+        (from_time, RateSource::TimeColumn, "the time column implies"),
+        (options.rate_hz, RateSource::Flag, "--rate says"),
+    ];
+    let given: Vec<(f64, RateSource, &str)> = candidates
+        .iter()
+        .filter_map(|&(r, s, label)| r.map(|r| (r, s, label)))
+        .collect();
+    let Some(&(rate_hz, rate_source, first_label)) = given.first() else {
+        return Err(InputError::NoRate {
+            path: path.to_path_buf(),
+        });
+    };
+    for &(other, _, label) in &given[1..] {
+        if (other / rate_hz - 1.0).abs() > RATE_TOLERANCE {
+            return Err(InputError::RateConflict {
+                path: path.to_path_buf(),
+                first: format!("{first_label} {rate_hz} Hz"),
+                second: format!(
+                    "{label} {other} Hz (tolerance {:.1}%)",
+                    RATE_TOLERANCE * 100.0
+                ),
+            });
+        }
+    }
+    Ok(Recording {
+        path: path.to_path_buf(),
+        format,
+        schema,
+        channels,
+        time,
+        rate_hz,
+        rate_source,
+        rate_from_time_hz: from_time,
+        batch_rows,
+    })
+}
+
+fn check_rate(path: &Path, rate: f64, source: &str) -> Result<f64, InputError> {
+    if rate.is_finite() && rate > 0.0 {
+        Ok(rate)
+    } else {
+        Err(InputError::InvalidRate {
+            path: path.to_path_buf(),
+            rate_hz: rate,
+            source_name: source.to_string(),
+        })
+    }
+}
+
+fn parse_rate(path: &Path, text: &str, source: &str) -> Result<f64, InputError> {
+    let rate = text.trim().parse::<f64>().unwrap_or(f64::NAN);
+    check_rate(path, rate, source)
+}
+
+/// The rate implied by the first timestamps, or `None` when there are fewer than two usable ones
+/// (the quality stage then reports what is wrong with the time column, row by row).
+fn rate_from_time(
+    path: &Path,
+    format: Format,
+    schema: &SchemaRef,
+    spec: &TimeSpec,
+    batch_rows: usize,
+) -> Result<Option<f64>, InputError> {
+    let mut decoder = TimeDecoder::new(spec);
+    let mut times = Vec::new();
+    for batch in batches::open_batches(path, format, schema, &[spec.column], batch_rows)? {
+        decoder.append(batch?.column(0), &mut times);
+        if times.len() > RATE_PROBE_SAMPLES {
+            break;
+        }
+    }
+    let mut dt: Vec<f64> = times
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| d.is_finite() && *d > 0.0)
+        .collect();
+    if dt.is_empty() {
+        return Ok(None);
+    }
+    let mid = dt.len() / 2;
+    let median = *dt.select_nth_unstable_by(mid, f64::total_cmp).1;
+    let near: Vec<f64> = dt
+        .iter()
+        .copied()
+        .filter(|d| *d > 0.5 * median && *d < 1.5 * median)
+        .collect();
+    let mean = near.iter().sum::<f64>() / near.len() as f64;
+    check_rate(path, 1.0 / mean, &format!("time column {:?}", spec.name)).map(Some)
+}
+
+/// A block of consecutive rows: one `Vec` per channel (SI units) and, when the file has one, the time
+/// of each row in seconds since the first row.
+#[derive(Debug, Clone, Default)]
+pub struct Block {
+    /// Index of the block's first row in the file (0-based data rows).
+    pub first_row: u64,
+    pub time_s: Option<Vec<f64>>,
+    pub channels: Vec<Vec<f64>>,
+}
+
+impl Block {
+    pub fn rows(&self) -> usize {
+        self.channels.first().map_or(0, Vec::len)
+    }
+}
+
+impl Recording {
+    /// Streams the recording's rows, block by block.
+    pub fn blocks(&self) -> Result<BlockReader, InputError> {
+        let mut projection: Vec<usize> = Vec::new();
+        if let Some(t) = &self.time {
+            projection.push(t.column);
+        }
+        projection.extend(self.channels.iter().map(|c| c.column));
+        let batches = batches::open_batches(
+            &self.path,
+            self.format,
+            &self.schema,
+            &projection,
+            self.batch_rows,
+        )?;
+        Ok(BlockReader {
+            recording: self.clone(),
+            batches,
+            time: self.time.as_ref().map(TimeDecoder::new),
+            conversions: self.channels.iter().map(ChannelSpec::to_si).collect(),
+        })
+    }
+
+    /// Channel names, in order.
+    pub fn channel_names(&self) -> Vec<String> {
+        self.channels.iter().map(|c| c.name.clone()).collect()
+    }
+}
+
+/// Iterator over a recording's [`Block`]s.
+pub struct BlockReader {
+    recording: Recording,
+    batches: Batches,
+    time: Option<TimeDecoder>,
+    conversions: Vec<(f64, f64)>,
+}
+
+impl Iterator for BlockReader {
+    type Item = Result<Block, InputError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let first_row = self.batches.next_row();
+        let batch = match self.batches.next()? {
+            Ok(b) => b,
+            Err(e) => return Some(Err(e)),
+        };
+        let mismatch = |column: &str| InputError::Corrupt {
+            path: self.recording.path.clone(),
+            format: self.recording.format.as_str(),
+            row: Some(first_row),
+            message: format!("column {column:?} changes type within the file"),
+        };
+        let mut columns = batch.columns().iter();
+        let time_s = match &mut self.time {
+            Some(decoder) => {
+                let mut out = Vec::with_capacity(batch.num_rows());
+                let array = columns.next()?;
+                if !decoder.append(array, &mut out) {
+                    let name = self.recording.time.as_ref().map_or("", |t| t.name.as_str());
+                    return Some(Err(mismatch(name)));
+                }
+                Some(out)
+            }
+            None => None,
+        };
+        let mut channels = Vec::with_capacity(self.conversions.len());
+        for ((array, &(factor, offset)), spec) in columns
+            .zip(&self.conversions)
+            .zip(&self.recording.channels)
+        {
+            let mut out = Vec::with_capacity(batch.num_rows());
+            if !append_samples(array, factor, offset, &mut out) {
+                return Some(Err(mismatch(&spec.name)));
+            }
+            channels.push(out);
+        }
+        Some(Ok(Block {
+            first_row,
+            time_s,
+            channels,
+        }))
+    }
+}

@@ -1,0 +1,283 @@
+//! One recording through the stages: io → quality → estimate, in a single pass over the file.
+//!
+//! The Welch estimate streams (memory bounded by segment length × channels); the Allan-family
+//! statistics need whole channels, so when they are asked for the clean samples are also collected
+//! (8 bytes per sample per channel). Info alone keeps nothing but statistics.
+
+use std::path::Path;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::avar::{AvarError, Confidence, Deviations, Statistic, TauGrid};
+use crate::estimate::Backend;
+use crate::io::{self, InputError, OpenOptions, Recording};
+use crate::psd::{log_bin, BinnedPsd, Psd, PsdError, WelchPlan};
+use crate::quality::{Cleaner, QualityOptions, QualityReport};
+use crate::Error;
+
+/// The τ values asked for: a grid of averaging factors, or explicit τ in seconds (converted to
+/// averaging factors with each file's own rate).
+#[derive(Debug, Clone, PartialEq)]
+pub enum TauSpec {
+    Grid(TauGrid),
+    Seconds(Vec<f64>),
+}
+
+/// What to estimate for each recording.
+#[derive(Debug, Clone, Default)]
+pub struct Work {
+    pub welch: Option<WelchWork>,
+    pub avar: Option<AvarWork>,
+}
+
+/// Welch PSD settings.
+#[derive(Debug, Clone)]
+pub struct WelchWork {
+    pub plan: WelchPlan,
+    /// Log-frequency bins per decade for the binned spectrum; `None` for none.
+    pub bins_per_decade: Option<u32>,
+}
+
+/// Allan-family settings.
+#[derive(Debug, Clone)]
+pub struct AvarWork {
+    pub statistics: Vec<Statistic>,
+    pub taus: TauSpec,
+    pub confidence: Confidence,
+}
+
+/// Everything that says how to read and screen a recording.
+#[derive(Debug, Clone, Default)]
+pub struct Inputs {
+    pub open: OpenOptions,
+    pub quality: QualityOptions,
+}
+
+/// A channel's PSD, raw and log-binned.
+#[derive(Debug, Clone)]
+pub struct ChannelPsd {
+    pub channel: String,
+    pub psd: Psd,
+    pub binned: Option<BinnedPsd>,
+}
+
+/// A channel's Allan-family statistics, one entry per statistic asked for.
+#[derive(Debug, Clone)]
+pub struct ChannelDeviations {
+    pub channel: String,
+    pub statistics: Vec<Deviations>,
+}
+
+/// Wall time spent per stage, seconds.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Timings {
+    /// Reading, converting and screening (including the streamed Welch updates).
+    pub read_s: f64,
+    pub welch_s: f64,
+    pub avar_s: f64,
+}
+
+/// The results of one recording.
+#[derive(Debug, Clone)]
+pub struct FileResult {
+    pub recording: Recording,
+    pub quality: QualityReport,
+    pub psd: Option<Vec<ChannelPsd>>,
+    pub avar: Option<Vec<ChannelDeviations>>,
+    pub timings: Timings,
+}
+
+/// Progress reports, in rows read; the CLI shows them as a bar on a terminal.
+pub trait Progress {
+    fn start(&self, _path: &Path) {}
+    fn advance(&self, _rows: u64) {}
+}
+
+/// No progress reporting.
+pub struct Silent;
+impl Progress for Silent {}
+
+/// Runs `work` on one recording.
+pub fn run(
+    path: &Path,
+    inputs: &Inputs,
+    work: &Work,
+    backend: &dyn Backend,
+    progress: &dyn Progress,
+) -> Result<FileResult, Error> {
+    let recording = io::open(path, &inputs.open)?;
+    progress.start(path);
+    let n_channels = recording.channels.len();
+    let mut timings = Timings::default();
+    let t_read = Instant::now();
+
+    let mut welch = work
+        .welch
+        .as_ref()
+        .map(|w| backend.welch(&w.plan, recording.rate_hz, n_channels));
+    let mut series: Option<Vec<Vec<f64>>> = work.avar.as_ref().map(|_| vec![Vec::new(); n_channels]);
+    let mut cleaner = Cleaner::new(&recording, inputs.quality);
+    let mut consume = |chunk: crate::quality::SampleChunk| {
+        if chunk.is_empty() {
+            return;
+        }
+        if let Some(sink) = welch.as_mut() {
+            let slices: Vec<&[f64]> = chunk.channels.iter().map(Vec::as_slice).collect();
+            sink.push(&slices);
+        }
+        if let Some(all) = series.as_mut() {
+            for (dst, src) in all.iter_mut().zip(chunk.channels) {
+                if dst.is_empty() {
+                    *dst = src;
+                } else {
+                    dst.extend_from_slice(&src);
+                }
+            }
+        }
+    };
+    for block in recording.blocks()? {
+        let block = block?;
+        let rows = block.rows() as u64;
+        consume(cleaner.push(block)?);
+        progress.advance(rows);
+    }
+    let (last, quality) = cleaner.finish()?;
+    consume(last);
+    timings.read_s = t_read.elapsed().as_secs_f64();
+
+    let psd = match (welch, &work.welch) {
+        (Some(sink), Some(w)) => {
+            let t = Instant::now();
+            let spectra = sink
+                .finish()
+                .map_err(|e| psd_error(&recording, &quality, e))?;
+            timings.welch_s = t.elapsed().as_secs_f64();
+            Some(
+                recording
+                    .channel_names()
+                    .into_iter()
+                    .zip(spectra)
+                    .map(|(channel, psd)| ChannelPsd {
+                        binned: w.bins_per_decade.map(|k| log_bin(&psd, k)),
+                        channel,
+                        psd,
+                    })
+                    .collect(),
+            )
+        }
+        _ => None,
+    };
+
+    let avar = match (series, &work.avar) {
+        (Some(series), Some(a)) => {
+            let t = Instant::now();
+            let out = deviations(&recording, &series, a, backend)?;
+            timings.avar_s = t.elapsed().as_secs_f64();
+            Some(out)
+        }
+        _ => None,
+    };
+    Ok(FileResult {
+        recording,
+        quality,
+        psd,
+        avar,
+        timings,
+    })
+}
+
+fn psd_error(recording: &Recording, quality: &QualityReport, e: PsdError) -> Error {
+    match e {
+        PsdError::TooShort { nperseg, .. } => InputError::TooShort {
+            path: recording.path.clone(),
+            what: format!("Welch with nperseg = {nperseg}"),
+            needed: nperseg as u64,
+            available: quality.samples_out,
+        }
+        .into(),
+        source => Error::Psd {
+            path: recording.path.clone(),
+            source,
+        },
+    }
+}
+
+/// Averaging factors for explicit τ: the nearest integer m = τ·rate, at least 1.
+pub fn factors_for_seconds(taus_s: &[f64], rate_hz: f64) -> Vec<u64> {
+    let mut m: Vec<u64> = taus_s
+        .iter()
+        .map(|t| (t * rate_hz).round().max(1.0) as u64)
+        .collect();
+    m.sort_unstable();
+    m.dedup();
+    m
+}
+
+fn deviations(
+    recording: &Recording,
+    series: &[Vec<f64>],
+    work: &AvarWork,
+    backend: &dyn Backend,
+) -> Result<Vec<ChannelDeviations>, Error> {
+    let n = series.first().map_or(0, Vec::len);
+    let grid = match &work.taus {
+        TauSpec::Grid(g) => g.clone(),
+        TauSpec::Seconds(t) => TauGrid::Explicit(factors_for_seconds(t, recording.rate_hz)),
+    };
+    let mut out: Vec<ChannelDeviations> = recording
+        .channel_names()
+        .into_iter()
+        .map(|channel| ChannelDeviations {
+            channel,
+            statistics: Vec::new(),
+        })
+        .collect();
+    for &statistic in &work.statistics {
+        // An explicit τ the recording cannot support is an error, not a silently shorter list.
+        if let TauGrid::Explicit(asked) = &grid {
+            let valid = TauGrid::Explicit(asked.clone()).factors(n, statistic);
+            if let Some(&m) = asked.iter().find(|m| !valid.contains(m)) {
+                return Err(too_short(recording, statistic, m, n));
+            }
+        }
+        let results = backend.deviations(series, recording.rate_hz, &grid, statistic, work.confidence);
+        for (slot, result) in out.iter_mut().zip(results) {
+            let d = result.map_err(|e| match e {
+                AvarError::TooShort { .. } | AvarError::NoValidTau { .. } => {
+                    too_short(recording, statistic, 1, n)
+                }
+                source => Error::Avar {
+                    path: recording.path.clone(),
+                    channel: slot.channel.clone(),
+                    source,
+                },
+            })?;
+            slot.statistics.push(d);
+        }
+    }
+    Ok(out)
+}
+
+/// The samples a statistic needs at averaging factor m (2m+1 for the Allan family's second
+/// differences, 3m+1 for Hadamard's third differences).
+fn samples_needed(statistic: Statistic, m: u64) -> u64 {
+    match statistic {
+        Statistic::Hdev => 3 * m + 1,
+        Statistic::Mdev => 3 * m,
+        _ => 2 * m + 1,
+    }
+}
+
+fn too_short(recording: &Recording, statistic: Statistic, m: u64, n: usize) -> Error {
+    InputError::TooShort {
+        path: recording.path.clone(),
+        what: format!(
+            "{statistic} at tau = {} s (m = {m})",
+            m as f64 / recording.rate_hz
+        ),
+        needed: samples_needed(statistic, m),
+        available: n as u64,
+    }
+    .into()
+}

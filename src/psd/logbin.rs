@@ -1,0 +1,135 @@
+//! Log-frequency binning: a low-variance spectrum for plotting and for fitting noise models.
+//!
+//! A Welch spectrum has constant resolution Δf, so on a log axis the top decade holds 90 % of the
+//! points and each is as noisy as the lowest one. Averaging the bins that fall into bands of
+//! 1/`bins_per_decade` decade gives roughly even spacing on the log axis and a variance that falls
+//! with frequency, as a fit in the log domain wants.
+//!
+//! Bands are aligned to decades (edges at 10^(j/bins_per_decade) Hz), so spectra of different
+//! recordings are binned alike. At low frequency the bands are narrower than Δf and most hold no
+//! bin; there each bin is kept on its own. DC is dropped (it holds the removed trend, not noise).
+//!
+//! Degrees of freedom: the exact EDF of the band mean for white Gaussian input (see `dof.rs`),
+//! 2·K·M / (correction for the correlation between overlapping segments and between neighbouring
+//! bins that the window and zero padding create). Assuming independent bins (2·K·M) would overstate
+//! a Hann-window band's EDF almost twofold and make a fit overconfident.
+
+use super::dof::DofInputs;
+use super::Psd;
+
+/// A log-binned spectrum. Output bin b averages `bins[b]` consecutive input bins.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct BinnedPsd {
+    /// Arithmetic mean of the averaged bins' frequencies.
+    pub freq_hz: Vec<f64>,
+    /// Lower edge of the span the averaged bins cover: first bin's frequency − Δf/2. Consecutive
+    /// output bins tile the axis, so value·(f_hi − f_lo) sums to the power in the band.
+    pub f_lo_hz: Vec<f64>,
+    /// Upper edge: last bin's frequency + Δf/2.
+    pub f_hi_hz: Vec<f64>,
+    /// Arithmetic mean of the averaged bins' values (same unit as the `Psd`).
+    pub value: Vec<f64>,
+    /// Number of input bins averaged.
+    pub bins: Vec<u32>,
+    /// Equivalent degrees of freedom of `value` (value·dof/E[value] ~ χ²(dof)).
+    pub dof: Vec<f64>,
+}
+
+/// Averages the bins of `psd` (DC excluded) in bands of 1/`bins_per_decade` decade.
+/// `bins_per_decade = 0` keeps every bin on its own (DC still dropped).
+pub fn log_bin(psd: &Psd, bins_per_decade: u32) -> BinnedPsd {
+    let n = psd.freq_hz.len().min(psd.value.len());
+    let bands = group(&psd.freq_hz[..n], bins_per_decade);
+    let half = psd.bin_width_hz() / 2.0;
+    let mut out = BinnedPsd {
+        freq_hz: Vec::with_capacity(bands.len()),
+        f_lo_hz: Vec::with_capacity(bands.len()),
+        f_hi_hz: Vec::with_capacity(bands.len()),
+        value: Vec::with_capacity(bands.len()),
+        bins: Vec::with_capacity(bands.len()),
+        dof: band_dof(psd, &bands),
+    };
+    for &(i0, i1) in &bands {
+        let k = (i1 - i0 + 1) as f64;
+        out.freq_hz.push(psd.freq_hz[i0..=i1].iter().sum::<f64>() / k);
+        out.value.push(psd.value[i0..=i1].iter().sum::<f64>() / k);
+        out.f_lo_hz.push(psd.freq_hz[i0] - half);
+        out.f_hi_hz.push(psd.freq_hz[i1] + half);
+        out.bins.push(u32::try_from(i1 - i0 + 1).unwrap_or(u32::MAX));
+    }
+    out
+}
+
+/// Runs of consecutive bins k ≥ 1 that share the band ⌊bins_per_decade·log10 f_k⌋, as inclusive
+/// index ranges. Bins at f ≤ 0 (DC) are skipped.
+fn group(freq_hz: &[f64], bins_per_decade: u32) -> Vec<(usize, usize)> {
+    let band = |k: usize| -> i64 {
+        if bins_per_decade == 0 {
+            k as i64
+        } else {
+            (f64::from(bins_per_decade) * freq_hz[k].log10()).floor() as i64
+        }
+    };
+    let mut bands: Vec<(usize, usize)> = Vec::new();
+    let mut current = None;
+    for k in 0..freq_hz.len() {
+        if !(freq_hz[k] > 0.0) {
+            continue;
+        }
+        let j = band(k);
+        match bands.last_mut() {
+            Some(last) if current == Some(j) && last.1 + 1 == k => last.1 = k,
+            _ => bands.push((k, k)),
+        }
+        current = Some(j);
+    }
+    bands
+}
+
+/// Band EDF from the window and layout recorded in `psd`. Should those fields have been edited
+/// into something inconsistent, falls back to the sum of the per-bin EDF (an upper bound) rather
+/// than failing.
+fn band_dof(psd: &Psd, bands: &[(usize, usize)]) -> Vec<f64> {
+    let window = psd.window.coefficients(psd.nperseg).ok();
+    let consistent = psd.nperseg > 0 && psd.noverlap < psd.nperseg && psd.nfft >= psd.nperseg;
+    match window {
+        Some(window) if consistent && psd.segments > 0 => DofInputs {
+            window: &window,
+            step: psd.nperseg - psd.noverlap,
+            nfft: psd.nfft,
+            segments: psd.segments,
+            average: psd.average,
+        }
+        .per_band(bands),
+        _ => bands
+            .iter()
+            .map(|&(i0, i1)| psd.dof.get(i0..=i1).map_or(f64::NAN, |d| d.iter().sum()))
+            .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn low_bins_stay_single_and_high_bins_group() {
+        // Δf = 1 Hz, 10 bands per decade: up to ~10 Hz each bin is alone (bands narrower than
+        // Δf), from there bands of 10^0.1 ≈ 1.26× collect several bins.
+        let f: Vec<f64> = (0..=100).map(f64::from).collect();
+        let bands = group(&f, 10);
+        assert_eq!(&bands[..4], &[(1, 1), (2, 2), (3, 3), (4, 4)]);
+        assert_eq!(bands.last(), Some(&(80, 100)));
+        let covered: usize = bands.iter().map(|(a, b)| b - a + 1).sum();
+        assert_eq!(covered, 100, "every bin but DC in exactly one band");
+        for w in bands.windows(2) {
+            assert_eq!(w[0].1 + 1, w[1].0);
+        }
+    }
+
+    #[test]
+    fn zero_bins_per_decade_keeps_every_bin() {
+        let f = [0.0, 0.5, 1.0, 1.5];
+        assert_eq!(group(&f, 0), vec![(1, 1), (2, 2), (3, 3)]);
+    }
+}

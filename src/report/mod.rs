@@ -1,0 +1,307 @@
+//! Outputs: long tables (Arrow IPC, CSV) and one JSON document per run, all written atomically.
+//!
+//! The JSON document has the same shape for every command (`info`, `psd`, `avar`, `analyze`): a header
+//! (schema version, tool version, command, backend, options), one entry per input file with either its
+//! results or its error (message, file, column, row), and a summary. Its schema is
+//! `schema/imunoise-output.schema.json`; the README describes it.
+
+mod atomic;
+mod table;
+
+use std::path::Path;
+
+use serde_json::{json, Value};
+
+pub use atomic::{write_atomically, OutputError};
+pub use table::{Column, Table};
+
+use crate::avar::Deviations;
+use crate::io::Recording;
+use crate::pipeline::FileResult;
+use crate::psd::Scaling;
+use crate::units::Unit;
+use crate::Error;
+
+/// Version of the JSON document and table layout; bumped on any incompatible change.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// Output formats for tables and the document.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Formats {
+    pub arrow: bool,
+    pub csv: bool,
+    pub json: bool,
+}
+
+impl Default for Formats {
+    fn default() -> Self {
+        Formats {
+            arrow: true,
+            csv: true,
+            json: true,
+        }
+    }
+}
+
+/// The unit of a spectrum of values in `unit`.
+pub fn psd_unit(unit: Option<Unit>, scaling: Scaling) -> String {
+    let u = unit.map_or("raw".to_string(), |u| u.to_string());
+    match scaling {
+        Scaling::Density => format!("({u})^2/Hz"),
+        Scaling::Spectrum => format!("({u})^2"),
+    }
+}
+
+fn channel_unit(recording: &Recording, channel: &str) -> Option<Unit> {
+    recording
+        .channels
+        .iter()
+        .find(|c| c.name == channel)
+        .and_then(|c| c.si_unit())
+}
+
+fn file_name(r: &Recording) -> String {
+    r.path.display().to_string()
+}
+
+/// One row per file × channel × frequency bin.
+pub fn psd_table(results: &[&FileResult]) -> Table {
+    let mut t = Table::default();
+    for r in results {
+        for c in r.psd.iter().flatten() {
+            let n = c.psd.freq_hz.len();
+            let unit = psd_unit(channel_unit(&r.recording, &c.channel), c.psd.scaling);
+            t.append(Table {
+                columns: vec![
+                    ("file".into(), Column::Str(vec![file_name(&r.recording); n])),
+                    ("channel".into(), Column::Str(vec![c.channel.clone(); n])),
+                    ("unit".into(), Column::Str(vec![unit; n])),
+                    ("freq_hz".into(), Column::F64(c.psd.freq_hz.clone())),
+                    ("psd".into(), Column::F64(c.psd.value.clone())),
+                ],
+                metadata: Default::default(),
+            });
+        }
+    }
+    t
+}
+
+/// One row per file × channel × log-frequency bin.
+pub fn psd_binned_table(results: &[&FileResult]) -> Table {
+    let mut t = Table::default();
+    for r in results {
+        for c in r.psd.iter().flatten() {
+            let Some(b) = &c.binned else { continue };
+            let n = b.freq_hz.len();
+            let unit = psd_unit(channel_unit(&r.recording, &c.channel), c.psd.scaling);
+            t.append(Table {
+                columns: vec![
+                    ("file".into(), Column::Str(vec![file_name(&r.recording); n])),
+                    ("channel".into(), Column::Str(vec![c.channel.clone(); n])),
+                    ("unit".into(), Column::Str(vec![unit; n])),
+                    ("freq_hz".into(), Column::F64(b.freq_hz.clone())),
+                    ("f_lo_hz".into(), Column::F64(b.f_lo_hz.clone())),
+                    ("f_hi_hz".into(), Column::F64(b.f_hi_hz.clone())),
+                    ("psd".into(), Column::F64(b.value.clone())),
+                    (
+                        "bins".into(),
+                        Column::U64(b.bins.iter().map(|&x| x as u64).collect()),
+                    ),
+                    ("dof".into(), Column::F64(b.dof.clone())),
+                ],
+                metadata: Default::default(),
+            });
+        }
+    }
+    t
+}
+
+/// One row per file × channel × statistic × τ.
+pub fn avar_table(results: &[&FileResult]) -> Table {
+    let mut t = Table::default();
+    for r in results {
+        for c in r.avar.iter().flatten() {
+            let unit = channel_unit(&r.recording, &c.channel)
+                .map_or("raw".to_string(), |u| u.to_string());
+            for d in &c.statistics {
+                let n = d.m.len();
+                let dev = d.deviation();
+                t.append(Table {
+                    columns: vec![
+                        ("file".into(), Column::Str(vec![file_name(&r.recording); n])),
+                        ("channel".into(), Column::Str(vec![c.channel.clone(); n])),
+                        ("unit".into(), Column::Str(vec![unit.clone(); n])),
+                        ("statistic".into(), Column::Str(vec![d.statistic.to_string(); n])),
+                        ("m".into(), Column::U64(d.m.clone())),
+                        ("tau_s".into(), Column::F64(d.tau_s.clone())),
+                        ("deviation".into(), Column::F64(dev)),
+                        ("deviation_lo".into(), Column::F64(sqrt_all(&d.variance_lo))),
+                        ("deviation_hi".into(), Column::F64(sqrt_all(&d.variance_hi))),
+                        ("variance".into(), Column::F64(d.variance.clone())),
+                        ("edf".into(), Column::F64(d.edf.clone())),
+                        (
+                            "alpha".into(),
+                            Column::I64(d.alpha.iter().map(|&a| a as i64).collect()),
+                        ),
+                        ("n_terms".into(), Column::U64(d.n_terms.clone())),
+                    ],
+                    metadata: Default::default(),
+                });
+            }
+        }
+    }
+    t
+}
+
+fn sqrt_all(v: &[f64]) -> Vec<f64> {
+    v.iter().map(|x| x.sqrt()).collect()
+}
+
+fn deviations_json(d: &Deviations) -> Value {
+    json!({
+        "statistic": d.statistic.to_string(),
+        "confidence": d.confidence,
+        "m": d.m,
+        "tau_s": d.tau_s,
+        "deviation": d.deviation(),
+        "deviation_lo": sqrt_all(&d.variance_lo),
+        "deviation_hi": sqrt_all(&d.variance_hi),
+        "edf": d.edf,
+        "alpha": d.alpha,
+        "n_terms": d.n_terms,
+    })
+}
+
+/// The JSON entry of one file's results.
+pub fn file_json(r: &FileResult) -> Value {
+    let rec = &r.recording;
+    let channels: Vec<Value> = rec
+        .channels
+        .iter()
+        .map(|c| {
+            json!({
+                "name": c.name,
+                "kind": c.kind,
+                "unit": c.unit.map(|u| u.to_string()),
+                "si_unit": c.si_unit().map(|u| u.to_string()),
+                "stored_type": c.stored_type,
+                "scale": c.scale,
+            })
+        })
+        .collect();
+    let mut entry = json!({
+        "path": file_name(rec),
+        "status": "ok",
+        "recording": {
+            "format": rec.format,
+            "rate_hz": rec.rate_hz,
+            "rate_source": rec.rate_source,
+            "rate_from_time_hz": rec.rate_from_time_hz,
+            "time_column": rec.time.as_ref().map(|t| t.name.clone()),
+            "rows": r.quality.rows_read,
+            "samples": r.quality.samples_out,
+            "duration_s": r.quality.duration_s,
+            "channels": channels,
+        },
+        "quality": r.quality,
+        "timings": r.timings,
+    });
+    if let Some(psd) = &r.psd {
+        entry["psd"] = psd
+            .iter()
+            .map(|c| {
+                let unit = psd_unit(channel_unit(rec, &c.channel), c.psd.scaling);
+                let mut v = json!({
+                    "channel": c.channel,
+                    "unit": unit,
+                    "scaling": c.psd.scaling,
+                    "segments": c.psd.segments,
+                    "nperseg": c.psd.nperseg,
+                    "nfft": c.psd.nfft,
+                    "enbw_hz": c.psd.enbw_hz,
+                    "freq_hz": c.psd.freq_hz,
+                    "value": c.psd.value,
+                });
+                if let Some(b) = &c.binned {
+                    v["binned"] = json!({
+                        "freq_hz": b.freq_hz, "f_lo_hz": b.f_lo_hz, "f_hi_hz": b.f_hi_hz,
+                        "value": b.value, "bins": b.bins, "dof": b.dof,
+                    });
+                }
+                v
+            })
+            .collect();
+    }
+    if let Some(avar) = &r.avar {
+        entry["avar"] = avar
+            .iter()
+            .map(|c| {
+                json!({
+                    "channel": c.channel,
+                    "unit": channel_unit(rec, &c.channel).map(|u| u.to_string()),
+                    "statistics": c.statistics.iter().map(deviations_json).collect::<Vec<_>>(),
+                })
+            })
+            .collect();
+    }
+    entry
+}
+
+/// The JSON entry of a file that failed.
+pub fn error_json(path: &Path, e: &Error) -> Value {
+    json!({
+        "path": path.display().to_string(),
+        "status": "error",
+        "error": {
+            "message": e.to_string(),
+            "column": e.column(),
+            "row": e.row(),
+        },
+    })
+}
+
+/// The whole run's document.
+pub fn document(
+    command: &str,
+    backend: &str,
+    options: Value,
+    files: Vec<Value>,
+    elapsed_s: f64,
+) -> Value {
+    let failed = files.iter().filter(|f| f["status"] == "error").count();
+    json!({
+        "schema_version": SCHEMA_VERSION,
+        "tool": "imunoise",
+        "version": env!("CARGO_PKG_VERSION"),
+        "command": command,
+        "backend": backend,
+        "options": options,
+        "summary": {
+            "files": files.len(),
+            "ok": files.len() - failed,
+            "failed": failed,
+            "elapsed_s": elapsed_s,
+        },
+        "files": files,
+    })
+}
+
+/// Writes a table in the asked formats as `dir/stem.arrow` and `dir/stem.csv` (nothing for an empty
+/// table).
+pub fn write_table(dir: &Path, stem: &str, table: &Table, formats: Formats) -> Result<(), OutputError> {
+    if table.rows() == 0 {
+        return Ok(());
+    }
+    if formats.arrow {
+        table.write_arrow(&dir.join(format!("{stem}.arrow")))?;
+    }
+    if formats.csv {
+        table.write_csv(&dir.join(format!("{stem}.csv")))?;
+    }
+    Ok(())
+}
+
+/// Writes the document as pretty JSON, atomically.
+pub fn write_json(path: &Path, doc: &Value) -> Result<(), OutputError> {
+    write_atomically(path, |out| serde_json::to_writer_pretty(out, doc))
+}

@@ -1,0 +1,266 @@
+//! Physical units and sensor kinds of channels.
+//!
+//! Everything inside imunoise is SI: angular rate in rad/s, acceleration in m/s², temperature in °C
+//! (an offset from kelvin that no variance or spectrum can see). Conversion happens once, here, when a
+//! column is read; outputs name the SI unit they are in. An unknown unit string is an error, never a guess.
+
+use std::fmt;
+use std::str::FromStr;
+
+use serde::Serialize;
+
+/// Standard gravity, m/s² (ISO 80000-3, CGPM 1901): the factor between `g` and m/s².
+pub const STANDARD_GRAVITY: f64 = 9.80665;
+
+/// What physical quantity a unit measures; decides the SI unit a channel is stored in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Quantity {
+    AngularRate,
+    Acceleration,
+    Temperature,
+    Voltage,
+    /// Counts, LSB or a plain number: kept as given.
+    Dimensionless,
+}
+
+impl Quantity {
+    /// The unit values of this quantity are stored in after ingest.
+    pub fn si_unit(self) -> Unit {
+        match self {
+            Quantity::AngularRate => Unit::RadPerS,
+            Quantity::Acceleration => Unit::MPerS2,
+            Quantity::Temperature => Unit::DegC,
+            Quantity::Voltage => Unit::Volt,
+            Quantity::Dimensionless => Unit::One,
+        }
+    }
+}
+
+/// A unit a column may be recorded in (field metadata `unit`, or `--unit`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Unit {
+    #[serde(rename = "rad/s")]
+    RadPerS,
+    #[serde(rename = "mrad/s")]
+    MilliradPerS,
+    #[serde(rename = "deg/s")]
+    DegPerS,
+    #[serde(rename = "deg/h")]
+    DegPerH,
+    #[serde(rename = "m/s^2")]
+    MPerS2,
+    #[serde(rename = "g")]
+    G,
+    #[serde(rename = "mg")]
+    MilliG,
+    #[serde(rename = "ug")]
+    MicroG,
+    #[serde(rename = "degC")]
+    DegC,
+    #[serde(rename = "K")]
+    Kelvin,
+    #[serde(rename = "V")]
+    Volt,
+    #[serde(rename = "mV")]
+    MilliVolt,
+    #[serde(rename = "1")]
+    One,
+}
+
+/// Every accepted spelling, lower-cased, with the unit it means. Kept as one table so that `--help`,
+/// the error message for an unknown unit and the parser can never disagree.
+const SPELLINGS: &[(&str, Unit)] = &[
+    ("rad/s", Unit::RadPerS),
+    ("mrad/s", Unit::MilliradPerS),
+    ("deg/s", Unit::DegPerS),
+    ("°/s", Unit::DegPerS),
+    ("dps", Unit::DegPerS),
+    ("deg/h", Unit::DegPerH),
+    ("°/h", Unit::DegPerH),
+    ("deg/hr", Unit::DegPerH),
+    ("m/s^2", Unit::MPerS2),
+    ("m/s2", Unit::MPerS2),
+    ("m/s²", Unit::MPerS2),
+    ("g", Unit::G),
+    ("mg", Unit::MilliG),
+    ("ug", Unit::MicroG),
+    ("µg", Unit::MicroG),
+    ("μg", Unit::MicroG),
+    ("degc", Unit::DegC),
+    ("°c", Unit::DegC),
+    ("c", Unit::DegC),
+    ("k", Unit::Kelvin),
+    ("v", Unit::Volt),
+    ("mv", Unit::MilliVolt),
+    ("1", Unit::One),
+    ("counts", Unit::One),
+    ("lsb", Unit::One),
+];
+
+impl Unit {
+    pub fn quantity(self) -> Quantity {
+        match self {
+            Unit::RadPerS | Unit::MilliradPerS | Unit::DegPerS | Unit::DegPerH => Quantity::AngularRate,
+            Unit::MPerS2 | Unit::G | Unit::MilliG | Unit::MicroG => Quantity::Acceleration,
+            Unit::DegC | Unit::Kelvin => Quantity::Temperature,
+            Unit::Volt | Unit::MilliVolt => Quantity::Voltage,
+            Unit::One => Quantity::Dimensionless,
+        }
+    }
+
+    /// `si = value · factor + offset`, into [`Quantity::si_unit`].
+    pub fn to_si(self) -> (f64, f64) {
+        use std::f64::consts::PI;
+        match self {
+            Unit::RadPerS | Unit::MPerS2 | Unit::DegC | Unit::Volt | Unit::One => (1.0, 0.0),
+            Unit::MilliradPerS | Unit::MilliVolt => (1e-3, 0.0),
+            Unit::DegPerS => (PI / 180.0, 0.0),
+            Unit::DegPerH => (PI / 180.0 / 3600.0, 0.0),
+            Unit::G => (STANDARD_GRAVITY, 0.0),
+            Unit::MilliG => (STANDARD_GRAVITY * 1e-3, 0.0),
+            Unit::MicroG => (STANDARD_GRAVITY * 1e-6, 0.0),
+            Unit::Kelvin => (1.0, -273.15),
+        }
+    }
+
+    /// The canonical spelling, as written in outputs.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Unit::RadPerS => "rad/s",
+            Unit::MilliradPerS => "mrad/s",
+            Unit::DegPerS => "deg/s",
+            Unit::DegPerH => "deg/h",
+            Unit::MPerS2 => "m/s^2",
+            Unit::G => "g",
+            Unit::MilliG => "mg",
+            Unit::MicroG => "ug",
+            Unit::DegC => "degC",
+            Unit::Kelvin => "K",
+            Unit::Volt => "V",
+            Unit::MilliVolt => "mV",
+            Unit::One => "1",
+        }
+    }
+
+    /// The accepted spellings, for help texts and error messages.
+    pub fn accepted() -> String {
+        SPELLINGS.iter().map(|(s, _)| *s).collect::<Vec<_>>().join(", ")
+    }
+}
+
+impl fmt::Display for Unit {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// An unrecognised unit string.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown unit {0:?} (accepted: {accepted})", accepted = Unit::accepted())]
+pub struct UnknownUnit(pub String);
+
+impl FromStr for Unit {
+    type Err = UnknownUnit;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let key: String = s.trim().replace(' ', "").to_lowercase();
+        SPELLINGS
+            .iter()
+            .find(|(spelling, _)| *spelling == key)
+            .map(|(_, unit)| *unit)
+            .ok_or_else(|| UnknownUnit(s.to_string()))
+    }
+}
+
+/// What a channel is: decides what later stages do with it (noise model for gyro/accel, regressor for
+/// temperature/aux).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kind {
+    Gyro,
+    Accel,
+    Temperature,
+    Aux,
+}
+
+impl Kind {
+    /// The kind a unit implies when no `kind` is given.
+    pub fn implied_by(unit: Option<Unit>) -> Kind {
+        match unit.map(Unit::quantity) {
+            Some(Quantity::AngularRate) => Kind::Gyro,
+            Some(Quantity::Acceleration) => Kind::Accel,
+            Some(Quantity::Temperature) => Kind::Temperature,
+            _ => Kind::Aux,
+        }
+    }
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Kind::Gyro => "gyro",
+            Kind::Accel => "accel",
+            Kind::Temperature => "temperature",
+            Kind::Aux => "aux",
+        }
+    }
+}
+
+impl fmt::Display for Kind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// An unrecognised kind string.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown channel kind {0:?} (accepted: gyro, accel, temperature, aux)")]
+pub struct UnknownKind(pub String);
+
+impl FromStr for Kind {
+    type Err = UnknownKind;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim().to_lowercase().as_str() {
+            "gyro" | "gyroscope" => Ok(Kind::Gyro),
+            "accel" | "accelerometer" => Ok(Kind::Accel),
+            "temperature" | "temp" => Ok(Kind::Temperature),
+            "aux" => Ok(Kind::Aux),
+            _ => Err(UnknownKind(s.to_string())),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_spelling_parses_to_a_unit_whose_canonical_name_parses_back() {
+        for (spelling, unit) in SPELLINGS {
+            assert_eq!(spelling.parse::<Unit>().unwrap(), *unit);
+            assert_eq!(unit.as_str().parse::<Unit>().unwrap(), *unit);
+        }
+    }
+
+    #[test]
+    fn conversions_match_their_definitions() {
+        let (f, _) = Unit::DegPerH.to_si();
+        // 1 deg/h = 4.84813681e-6 rad/s (π/648000).
+        assert!((f - 4.848_136_811_095_36e-6).abs() < 1e-18);
+        assert_eq!(Unit::MilliG.to_si().0, 9.80665e-3);
+        assert_eq!(Unit::Kelvin.to_si(), (1.0, -273.15));
+    }
+
+    #[test]
+    fn unknown_unit_is_an_error_that_lists_the_accepted_ones() {
+        let err = "furlong/fortnight".parse::<Unit>().unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains("furlong/fortnight") && msg.contains("deg/s"), "{msg}");
+    }
+
+    #[test]
+    fn kind_follows_unit_when_not_given() {
+        assert_eq!(Kind::implied_by(Some(Unit::DegPerS)), Kind::Gyro);
+        assert_eq!(Kind::implied_by(Some(Unit::MilliG)), Kind::Accel);
+        assert_eq!(Kind::implied_by(Some(Unit::Kelvin)), Kind::Temperature);
+        assert_eq!(Kind::implied_by(None), Kind::Aux);
+    }
+}

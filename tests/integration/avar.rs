@@ -1,0 +1,1 @@
+//! Allan-variance tests (being written).

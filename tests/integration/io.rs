@@ -1,0 +1,396 @@
+//! Ingest and quality: every format reads the same samples, and every kind of bad input is a clear
+//! error naming file, column and row (never a panic).
+
+use std::path::Path;
+use std::sync::Arc;
+
+use arrow_array::{ArrayRef, Int16Array, StringArray};
+use imunoise::io::{self, InputError, OpenOptions};
+use imunoise::pipeline::{self, Inputs, Silent, Work};
+use imunoise::quality::{GapPolicy, NonFinitePolicy, QualityOptions};
+use imunoise::Error;
+
+use super::support::*;
+
+const RATE: f64 = 100.0;
+
+/// Reads every clean sample of a file (info pass + collecting through the AV path's series).
+fn read_all(path: &Path, inputs: &Inputs) -> Result<(Vec<Vec<f64>>, imunoise::quality::QualityReport), Error> {
+    let rec = io::open(path, &inputs.open)?;
+    let mut cleaner = imunoise::quality::Cleaner::new(&rec, inputs.quality);
+    let mut out = vec![Vec::new(); rec.channels.len()];
+    for block in rec.blocks()? {
+        let chunk = cleaner.push(block?)?;
+        for (o, c) in out.iter_mut().zip(chunk.channels) {
+            o.extend(c);
+        }
+    }
+    let (last, report) = cleaner.finish()?;
+    for (o, c) in out.iter_mut().zip(last.channels) {
+        o.extend(c);
+    }
+    Ok((out, report))
+}
+
+fn two_channels(n: usize) -> (Vec<f64>, Vec<f64>) {
+    (noise(n, 1), noise(n, 2).iter().map(|x| 9.8 + 0.01 * x).collect())
+}
+
+fn recording(dir: &Path, name: &str, cols: Vec<Col>, rate: Option<f64>) -> std::path::PathBuf {
+    let path = dir.join(name);
+    write_ipc_file(&path, &batch(&cols, rate), 1000);
+    path
+}
+
+fn err_of(path: &Path, inputs: &Inputs) -> Error {
+    read_all(path, inputs).expect_err("expected an error")
+}
+
+#[test]
+fn every_format_reads_the_same_samples_in_si_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 5003;
+    let (g, a) = two_channels(n);
+    let cols = || {
+        vec![
+            f64_col("gyro", g.clone(), Some("deg/s")),
+            f64_col("accel", a.clone(), Some("g")),
+        ]
+    };
+    let b = batch(&cols(), Some(RATE));
+    write_ipc_file(&dir.path().join("r.arrow"), &b, 777);
+    write_ipc_stream(&dir.path().join("r.arrows"), &b, 1000);
+    write_parquet(&dir.path().join("r.parquet"), &b, 600);
+    write_csv(
+        &dir.path().join("r.csv"),
+        &[("gyro", Some("deg/s")), ("accel", Some("g"))],
+        &[g.clone(), a.clone()],
+    );
+    let deg = std::f64::consts::PI / 180.0;
+    for name in ["r.arrow", "r.arrows", "r.parquet", "r.csv"] {
+        let mut inputs = Inputs::default();
+        inputs.open.batch_rows = 512;
+        if name.ends_with("csv") {
+            inputs.open.rate_hz = Some(RATE);
+        }
+        let (data, report) = read_all(&dir.path().join(name), &inputs).unwrap();
+        assert_eq!(report.samples_out, n as u64, "{name}");
+        for i in 0..n {
+            assert_eq!(data[0][i], g[i] * deg, "{name} gyro row {i}");
+            assert_eq!(data[1][i], a[i] * 9.80665, "{name} accel row {i}");
+        }
+    }
+}
+
+#[test]
+fn integer_columns_are_scaled_and_projection_keeps_the_order_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw: Vec<i16> = (0..1000).map(|i| (i % 200 - 100) as i16).collect();
+    let cols = vec![
+        Col {
+            name: "counts".into(),
+            array: Arc::new(Int16Array::from(raw.clone())) as ArrayRef,
+            meta: vec![("unit", "mg".into()), ("scale", "0.5".into())],
+        },
+        f64_col("other", noise(1000, 3), None),
+    ];
+    let path = recording(dir.path(), "int.arrow", cols, Some(RATE));
+    for name in ["r.parquet"] {
+        write_parquet(&dir.path().join(name), &batch(&[
+            f64_col("a", vec![1.0; 10], None),
+            f64_col("b", vec![2.0; 10], None),
+        ], Some(RATE)), 4);
+    }
+    let mut inputs = Inputs::default();
+    inputs.open.columns.channels = vec!["other".into(), "counts".into()];
+    let (data, _) = read_all(&path, &inputs).unwrap();
+    for (i, r) in raw.iter().enumerate() {
+        assert_eq!(data[1][i], *r as f64 * 0.5 * 9.80665e-3);
+    }
+    // Parquet returns projected columns in file order; the reader must restore the order asked for.
+    inputs.open.columns.channels = vec!["b".into(), "a".into()];
+    let (data, _) = read_all(&dir.path().join("r.parquet"), &inputs).unwrap();
+    assert_eq!((data[0][0], data[1][0]), (2.0, 1.0));
+}
+
+#[test]
+fn missing_and_empty_files_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("nope.arrow");
+    let e = err_of(&missing, &Inputs::default());
+    assert!(matches!(e, Error::Input(InputError::NotFound { .. })), "{e}");
+    assert!(e.to_string().contains("nope.arrow"));
+    let empty = dir.path().join("empty.parquet");
+    std::fs::write(&empty, b"").unwrap();
+    let e = err_of(&empty, &Inputs::default());
+    assert!(matches!(e, Error::Input(InputError::Empty { .. })), "{e}");
+    assert!(e.to_string().contains("empty.parquet") && e.to_string().contains("empty"));
+}
+
+#[test]
+fn no_numeric_column_and_unknown_column_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let cols = vec![Col {
+        name: "label".into(),
+        array: Arc::new(StringArray::from(vec!["a", "b"])) as ArrayRef,
+        meta: vec![],
+    }];
+    let path = recording(dir.path(), "text.arrow", cols, Some(RATE));
+    let e = err_of(&path, &Inputs::default());
+    assert!(matches!(e, Error::Input(InputError::NoNumericColumn { .. })), "{e}");
+    assert!(e.to_string().contains("label"));
+
+    let path = recording(dir.path(), "ok.arrow", vec![f64_col("gx", noise(10, 1), None)], Some(RATE));
+    let mut inputs = Inputs::default();
+    inputs.open.columns.channels = vec!["gy".into()];
+    let e = err_of(&path, &inputs);
+    assert!(matches!(e, Error::Input(InputError::UnknownColumn { .. })), "{e}");
+    assert_eq!(e.column(), Some("gy"));
+    assert!(e.to_string().contains("gx"), "lists the available columns: {e}");
+}
+
+#[test]
+fn unknown_unit_names_column_and_unit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = recording(
+        dir.path(),
+        "u.arrow",
+        vec![f64_col("gx", noise(10, 1), Some("deg/fortnight"))],
+        Some(RATE),
+    );
+    let e = err_of(&path, &Inputs::default());
+    assert_eq!(e.column(), Some("gx"));
+    assert!(e.to_string().contains("deg/fortnight") && e.to_string().contains("u.arrow"), "{e}");
+}
+
+#[test]
+fn non_finite_samples_error_with_row_or_follow_the_policy() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 3000;
+    let (mut g, a) = two_channels(n);
+    g[1234] = f64::NAN;
+    g[2500] = f64::INFINITY;
+    g[2501] = f64::NAN;
+    let path = recording(
+        dir.path(),
+        "nan.arrow",
+        vec![f64_col("gyro", g.clone(), None), f64_col("accel", a, None)],
+        Some(RATE),
+    );
+    let e = err_of(&path, &Inputs::default());
+    assert!(matches!(e, Error::Input(InputError::NonFinite { .. })), "{e}");
+    assert_eq!((e.column(), e.row()), (Some("gyro"), Some(1234)));
+    assert!(e.to_string().contains("nan.arrow"));
+
+    let mut inputs = Inputs::default();
+    inputs.quality = QualityOptions {
+        nonfinite: NonFinitePolicy::Drop,
+        gaps: GapPolicy::Error,
+    };
+    let (data, report) = read_all(&path, &inputs).unwrap();
+    assert_eq!(report.dropped_rows, 3);
+    assert_eq!(data[0].len(), n - 3);
+    assert_eq!(data[1].len(), n - 3);
+    assert_eq!(data[0][1234], g[1235]);
+
+    inputs.quality.nonfinite = NonFinitePolicy::Interpolate;
+    inputs.open.batch_rows = 100; // the pair 2500-2501 straddles no batch edge, 1234 is mid-batch
+    let (data, report) = read_all(&path, &inputs).unwrap();
+    assert_eq!(data[0].len(), n);
+    assert_eq!(report.channels[0].interpolated_samples, 3);
+    assert_eq!(report.channels[0].first_nonfinite_row, Some(1234));
+    assert!((data[0][1234] - 0.5 * (g[1233] + g[1235])).abs() < 1e-15);
+    let third = (g[2502] - g[2499]) / 3.0;
+    assert!((data[0][2500] - (g[2499] + third)).abs() < 1e-14);
+    assert!((data[0][2501] - (g[2499] + 2.0 * third)).abs() < 1e-14);
+}
+
+#[test]
+fn interpolation_across_batch_boundaries_and_at_the_ends() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut g: Vec<f64> = (0..1000).map(|i| i as f64).collect();
+    for i in [0, 1, 99, 100, 101, 998, 999] {
+        g[i] = f64::NAN;
+    }
+    let path = dir.path().join("edge.arrow");
+    write_ipc_file(&path, &batch(&[f64_col("g", g, None)], Some(RATE)), 100);
+    let mut inputs = Inputs::default();
+    inputs.quality.nonfinite = NonFinitePolicy::Interpolate;
+    let (data, _) = read_all(&path, &inputs).unwrap();
+    assert_eq!(data[0][0], 2.0, "held at the start");
+    assert_eq!(data[0][1], 2.0);
+    assert_eq!(data[0][100], 100.0, "line across the batch edge");
+    assert_eq!(data[0][999], 997.0, "held at the end");
+}
+
+#[test]
+fn time_column_problems_name_the_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 2000;
+    let g = noise(n, 7);
+    let step = 10_000_000i64; // 10 ms in ns
+    let cases: Vec<(&str, Box<dyn Fn(usize, i64) -> i64>, u64)> = vec![
+        ("dup.arrow", Box::new(move |i, t| if i == 700 { t - step } else { t }), 700),
+        ("back.arrow", Box::new(move |i, t| if i == 900 { t - 5 * step } else { t }), 900),
+    ];
+    for (name, edit, row) in cases {
+        let path = recording(
+            dir.path(),
+            name,
+            vec![time_col(n, RATE, edit), f64_col("g", g.clone(), None)],
+            None,
+        );
+        let e = err_of(&path, &Inputs::default());
+        assert_eq!((e.column(), e.row()), (Some("time"), Some(row)), "{name}: {e}");
+        let expected = if name == "dup.arrow" { "repeats" } else { "goes back" };
+        assert!(e.to_string().contains(expected), "{e}");
+    }
+}
+
+#[test]
+fn gaps_are_errors_unless_ignored_or_filled() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 2000;
+    let g: Vec<f64> = (0..n).map(|i| i as f64).collect();
+    // Rows from 1500 on are 5 sample periods late: 5 samples missing before row 1500.
+    let step = 10_000_000i64;
+    let path = recording(
+        dir.path(),
+        "gap.arrow",
+        vec![
+            time_col(n, RATE, move |i, t| if i >= 1500 { t + 5 * step } else { t }),
+            f64_col("g", g.clone(), None),
+        ],
+        None,
+    );
+    let e = err_of(&path, &Inputs::default());
+    assert!(matches!(e, Error::Input(InputError::Gap { missing: 5, .. })), "{e}");
+    assert_eq!(e.row(), Some(1500));
+    assert!(e.to_string().contains("14.99"), "names where: {e}");
+
+    let mut inputs = Inputs::default();
+    inputs.quality.gaps = GapPolicy::Ignore;
+    let (data, report) = read_all(&path, &inputs).unwrap();
+    assert_eq!(data[0].len(), n);
+    assert_eq!((report.gap_count, report.missing_samples), (1, 5));
+    assert_eq!(report.gaps[0].row, 1500);
+
+    inputs.quality.gaps = GapPolicy::Fill;
+    let (data, report) = read_all(&path, &inputs).unwrap();
+    assert_eq!(data[0].len(), n + 5);
+    assert_eq!(report.filled_samples, 5);
+    // Values 1499 → 1500 with five points between them.
+    for k in 1..=5 {
+        assert!((data[0][1499 + k] - (1499.0 + k as f64 / 6.0)).abs() < 1e-12);
+    }
+    assert_eq!(data[0][1505], 1500.0);
+}
+
+#[test]
+fn rate_conflicts_are_errors_and_the_rate_source_is_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 500;
+    let path = recording(
+        dir.path(),
+        "conflict.arrow",
+        vec![time_col(n, 200.0, |_, t| t), f64_col("g", noise(n, 1), None)],
+        Some(100.0),
+    );
+    let e = io::open(&path, &OpenOptions::default()).unwrap_err();
+    assert!(matches!(e, InputError::RateConflict { .. }), "{e}");
+    assert!(e.to_string().contains("100") && e.to_string().contains("200"), "{e}");
+
+    let path = recording(dir.path(), "meta.arrow", vec![f64_col("g", noise(n, 1), None)], Some(100.0));
+    let mut o = OpenOptions::default();
+    o.rate_hz = Some(207.0);
+    assert!(matches!(io::open(&path, &o).unwrap_err(), InputError::RateConflict { .. }));
+    o.rate_hz = Some(100.2);
+    let r = io::open(&path, &o).unwrap();
+    assert_eq!((r.rate_hz, r.rate_source), (100.0, io::RateSource::Metadata));
+
+    let path = recording(dir.path(), "none.arrow", vec![f64_col("g", noise(n, 1), None)], None);
+    assert!(matches!(io::open(&path, &OpenOptions::default()).unwrap_err(), InputError::NoRate { .. }));
+    o.rate_hz = Some(50.0);
+    assert_eq!(io::open(&path, &o).unwrap().rate_source, io::RateSource::Flag);
+
+    // Timestamps jittered and rounded to 1 ms at 207 Hz still give 207 Hz.
+    let path = recording(
+        dir.path(),
+        "jitter.arrow",
+        vec![
+            time_col(5000, 207.0, |i, t| (t + ((i * 7919) % 13) as i64 * 10_000) / 1_000_000 * 1_000_000),
+            f64_col("g", noise(5000, 1), None),
+        ],
+        None,
+    );
+    let r = io::open(&path, &OpenOptions::default()).unwrap();
+    assert!((r.rate_hz / 207.0 - 1.0).abs() < 1e-3, "{}", r.rate_hz);
+}
+
+#[test]
+fn too_short_recordings_say_what_was_needed() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = recording(dir.path(), "short.arrow", vec![f64_col("g", noise(300, 1), None)], Some(RATE));
+    let work = Work {
+        welch: Some(imunoise::pipeline::WelchWork {
+            plan: imunoise::psd::WelchConfig::new(1024).validate().unwrap(),
+            bins_per_decade: None,
+        }),
+        avar: None,
+    };
+    let e = pipeline::run(&path, &Inputs::default(), &work, &imunoise::estimate::CpuBackend, &Silent)
+        .unwrap_err();
+    assert!(matches!(e, Error::Input(InputError::TooShort { needed: 1024, available: 300, .. })), "{e}");
+    assert!(e.to_string().contains("short.arrow") && e.to_string().contains("nperseg"));
+
+    let work = Work {
+        welch: None,
+        avar: Some(imunoise::pipeline::AvarWork {
+            statistics: vec![imunoise::avar::Statistic::Oadev],
+            taus: imunoise::pipeline::TauSpec::Seconds(vec![0.1, 2.0]),
+            confidence: imunoise::avar::Confidence::OneSigma,
+        }),
+    };
+    let e = pipeline::run(&path, &Inputs::default(), &work, &imunoise::estimate::CpuBackend, &Silent)
+        .unwrap_err();
+    assert!(matches!(e, Error::Input(InputError::TooShort { needed: 401, available: 300, .. })), "{e}");
+    assert!(e.to_string().contains("tau = 2 s"), "{e}");
+}
+
+#[test]
+fn truncated_and_corrupt_files_are_errors_not_panics() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = batch(&[f64_col("g", noise(20_000, 1), Some("rad/s"))], Some(RATE));
+    let ipc = dir.path().join("t.arrow");
+    write_ipc_file(&ipc, &b, 2000);
+    let stream = dir.path().join("t.arrows");
+    write_ipc_stream(&stream, &b, 2000);
+    let pq = dir.path().join("t.parquet");
+    write_parquet(&pq, &b, 2000);
+    for path in [&ipc, &stream, &pq] {
+        let bytes = std::fs::read(path).unwrap();
+        // Cut in the middle of the data.
+        std::fs::write(path, &bytes[..bytes.len() / 2]).unwrap();
+        let e = err_of(path, &Inputs::default());
+        assert!(matches!(e, Error::Input(InputError::Corrupt { .. })), "{}: {e}", path.display());
+        assert!(e.to_string().contains(path.file_name().unwrap().to_str().unwrap()));
+        // Garbage in the middle of an intact-length file.
+        let mut garbled = bytes.clone();
+        let mid = garbled.len() / 3;
+        for byte in &mut garbled[mid..mid + 64] {
+            *byte ^= 0x5A;
+        }
+        std::fs::write(path, &garbled).unwrap();
+        // May decode (flipped sample bits are valid floats) or fail; must not panic.
+        let _ = read_all(path, &Inputs::default());
+    }
+    let stream_rows = read_truncated_stream_rows(&stream);
+    assert!(stream_rows.is_none());
+}
+
+/// A truncated stream must not silently return fewer rows as if complete.
+fn read_truncated_stream_rows(path: &Path) -> Option<u64> {
+    let bytes = std::fs::read(path).unwrap();
+    std::fs::write(path, &bytes[..bytes.len() * 2 / 3]).unwrap();
+    read_all(path, &Inputs::default()).ok().map(|(_, r)| r.samples_out)
+}
