@@ -78,6 +78,15 @@ pub struct Timings {
     pub avar_s: f64,
 }
 
+/// Memory evidence of the streamed stages.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Footprint {
+    /// The most samples per channel the Welch estimate held between blocks (< nperseg + a block).
+    pub welch_peak_buffered_samples: usize,
+    /// The largest block read, rows.
+    pub largest_block_rows: usize,
+}
+
 /// The results of one recording.
 #[derive(Debug, Clone)]
 pub struct FileResult {
@@ -86,6 +95,7 @@ pub struct FileResult {
     pub psd: Option<Vec<ChannelPsd>>,
     pub avar: Option<Vec<ChannelDeviations>>,
     pub timings: Timings,
+    pub footprint: Footprint,
 }
 
 /// Progress reports, in rows read; the CLI shows them as a bar on a terminal.
@@ -110,13 +120,15 @@ pub fn run(
     progress.start(path);
     let n_channels = recording.channels.len();
     let mut timings = Timings::default();
+    let mut footprint = Footprint::default();
     let t_read = Instant::now();
 
     let mut welch = work
         .welch
         .as_ref()
         .map(|w| backend.welch(&w.plan, recording.rate_hz, n_channels));
-    let mut series: Option<Vec<Vec<f64>>> = work.avar.as_ref().map(|_| vec![Vec::new(); n_channels]);
+    let mut series: Option<Vec<Vec<f64>>> =
+        work.avar.as_ref().map(|_| vec![Vec::new(); n_channels]);
     let mut cleaner = Cleaner::new(&recording, inputs.quality);
     let mut consume = |chunk: crate::quality::SampleChunk| {
         if chunk.is_empty() {
@@ -138,9 +150,10 @@ pub fn run(
     };
     for block in recording.blocks()? {
         let block = block?;
-        let rows = block.rows() as u64;
+        let rows = block.rows();
+        footprint.largest_block_rows = footprint.largest_block_rows.max(rows);
         consume(cleaner.push(block)?);
-        progress.advance(rows);
+        progress.advance(rows as u64);
     }
     let (last, quality) = cleaner.finish()?;
     consume(last);
@@ -148,6 +161,7 @@ pub fn run(
 
     let psd = match (welch, &work.welch) {
         (Some(sink), Some(w)) => {
+            footprint.welch_peak_buffered_samples = sink.peak_buffered_samples();
             let t = Instant::now();
             let spectra = sink
                 .finish()
@@ -184,6 +198,7 @@ pub fn run(
         psd,
         avar,
         timings,
+        footprint,
     })
 }
 
@@ -241,7 +256,8 @@ fn deviations(
                 return Err(too_short(recording, statistic, m, n));
             }
         }
-        let results = backend.deviations(series, recording.rate_hz, &grid, statistic, work.confidence);
+        let results =
+            backend.deviations(series, recording.rate_hz, &grid, statistic, work.confidence);
         for (slot, result) in out.iter_mut().zip(results) {
             let d = result.map_err(|e| match e {
                 AvarError::TooShort { .. } | AvarError::NoValidTau { .. } => {

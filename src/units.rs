@@ -101,7 +101,9 @@ const SPELLINGS: &[(&str, Unit)] = &[
 impl Unit {
     pub fn quantity(self) -> Quantity {
         match self {
-            Unit::RadPerS | Unit::MilliradPerS | Unit::DegPerS | Unit::DegPerH => Quantity::AngularRate,
+            Unit::RadPerS | Unit::MilliradPerS | Unit::DegPerS | Unit::DegPerH => {
+                Quantity::AngularRate
+            }
             Unit::MPerS2 | Unit::G | Unit::MilliG | Unit::MicroG => Quantity::Acceleration,
             Unit::DegC | Unit::Kelvin => Quantity::Temperature,
             Unit::Volt | Unit::MilliVolt => Quantity::Voltage,
@@ -145,7 +147,11 @@ impl Unit {
 
     /// The accepted spellings, for help texts and error messages.
     pub fn accepted() -> String {
-        SPELLINGS.iter().map(|(s, _)| *s).collect::<Vec<_>>().join(", ")
+        SPELLINGS
+            .iter()
+            .map(|(s, _)| *s)
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 }
 
@@ -253,7 +259,10 @@ mod tests {
     fn unknown_unit_is_an_error_that_lists_the_accepted_ones() {
         let err = "furlong/fortnight".parse::<Unit>().unwrap_err();
         let msg = err.to_string();
-        assert!(msg.contains("furlong/fortnight") && msg.contains("deg/s"), "{msg}");
+        assert!(
+            msg.contains("furlong/fortnight") && msg.contains("deg/s"),
+            "{msg}"
+        );
     }
 
     #[test]

@@ -167,7 +167,12 @@ pub struct WelchArgs {
 pub struct AvarFlags {
     /// Statistics, comma-separated: oadev (overlapping Allan), adev (non-overlapping Allan), mdev
     /// (modified Allan), hdev (overlapping Hadamard, insensitive to a rate ramp).
-    #[arg(long = "stat", default_value = "oadev", value_delimiter = ',', value_name = "STAT,...")]
+    #[arg(
+        long = "stat",
+        default_value = "oadev",
+        value_delimiter = ',',
+        value_name = "STAT,..."
+    )]
     pub statistics: Vec<String>,
 
     /// Tau grid: octave (m = 1, 2, 4, ...), decade (1-2-5 per decade), N-per-decade (N log-spaced
@@ -191,7 +196,12 @@ pub struct OutputArgs {
     pub out: PathBuf,
 
     /// Table formats written into the output folder, comma-separated: arrow, csv, json.
-    #[arg(long, default_value = "arrow,csv,json", value_delimiter = ',', value_name = "FMT,...")]
+    #[arg(
+        long,
+        default_value = "arrow,csv,json",
+        value_delimiter = ',',
+        value_name = "FMT,..."
+    )]
     pub format: Vec<String>,
 
     /// Print the JSON document on stdout instead of writing the output folder.

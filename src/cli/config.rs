@@ -64,16 +64,22 @@ pub fn job(cli: Cli) -> Result<Job, UsageError> {
     })
 }
 
-fn pairs<T: std::str::FromStr>(entries: &[String], what: &str) -> Result<Vec<(String, T)>, UsageError>
+fn pairs<T: std::str::FromStr>(
+    entries: &[String],
+    what: &str,
+) -> Result<Vec<(String, T)>, UsageError>
 where
     T::Err: std::fmt::Display,
 {
     entries
         .iter()
         .map(|e| {
-            let (col, value) = e
-                .split_once('=')
-                .ok_or_else(|| usage(format!("--{what} {e:?}: expected COLUMN={}", what.to_uppercase())))?;
+            let (col, value) = e.split_once('=').ok_or_else(|| {
+                usage(format!(
+                    "--{what} {e:?}: expected COLUMN={}",
+                    what.to_uppercase()
+                ))
+            })?;
             let parsed = value
                 .trim()
                 .parse::<T>()
@@ -83,18 +89,29 @@ where
         .collect()
 }
 
-fn inputs(a: &InputArgs, options: &mut serde_json::Map<String, Value>) -> Result<Inputs, UsageError> {
+fn inputs(
+    a: &InputArgs,
+    options: &mut serde_json::Map<String, Value>,
+) -> Result<Inputs, UsageError> {
     if let Some(r) = a.rate {
         if !(r.is_finite() && r > 0.0) {
-            return Err(usage(format!("--rate {r}: must be a positive number of Hz")));
+            return Err(usage(format!(
+                "--rate {r}: must be a positive number of Hz"
+            )));
         }
     }
     if a.batch_rows == 0 {
         return Err(usage("--batch-rows must be at least 1"));
     }
     let quality = QualityOptions {
-        nonfinite: a.on_nonfinite.parse().map_err(|e| usage(format!("--on-nonfinite: {e}")))?,
-        gaps: a.on_gap.parse().map_err(|e| usage(format!("--on-gap: {e}")))?,
+        nonfinite: a
+            .on_nonfinite
+            .parse()
+            .map_err(|e| usage(format!("--on-nonfinite: {e}")))?,
+        gaps: a
+            .on_gap
+            .parse()
+            .map_err(|e| usage(format!("--on-gap: {e}")))?,
     };
     let columns = ColumnOverrides {
         channels: a.channels.clone(),
@@ -121,15 +138,30 @@ fn inputs(a: &InputArgs, options: &mut serde_json::Map<String, Value>) -> Result
     })
 }
 
-fn welch_work(a: &WelchArgs, options: &mut serde_json::Map<String, Value>) -> Result<WelchWork, UsageError> {
+fn welch_work(
+    a: &WelchArgs,
+    options: &mut serde_json::Map<String, Value>,
+) -> Result<WelchWork, UsageError> {
     let config = WelchConfig {
-        window: a.window.parse().map_err(|e| usage(format!("--window: {e}")))?,
+        window: a
+            .window
+            .parse()
+            .map_err(|e| usage(format!("--window: {e}")))?,
         nperseg: a.nperseg,
         noverlap: a.noverlap,
         nfft: a.nfft,
-        detrend: a.detrend.parse().map_err(|e| usage(format!("--detrend: {e}")))?,
-        scaling: a.scaling.parse().map_err(|e| usage(format!("--scaling: {e}")))?,
-        average: a.average.parse().map_err(|e| usage(format!("--average: {e}")))?,
+        detrend: a
+            .detrend
+            .parse()
+            .map_err(|e| usage(format!("--detrend: {e}")))?,
+        scaling: a
+            .scaling
+            .parse()
+            .map_err(|e| usage(format!("--scaling: {e}")))?,
+        average: a
+            .average
+            .parse()
+            .map_err(|e| usage(format!("--average: {e}")))?,
     };
     let plan = config.validate().map_err(usage)?;
     options.insert(
@@ -155,7 +187,9 @@ pub fn tau_spec(text: &str) -> Result<TauSpec, UsageError> {
         "all" => Some(TauGrid::All),
         _ => match t.strip_suffix("-per-decade") {
             Some(n) => {
-                let n: u32 = n.parse().map_err(|_| usage(format!("--taus {t:?}: N-per-decade needs a whole N")))?;
+                let n: u32 = n
+                    .parse()
+                    .map_err(|_| usage(format!("--taus {t:?}: N-per-decade needs a whole N")))?;
                 if n == 0 {
                     return Err(usage("--taus: N-per-decade needs N >= 1"));
                 }
@@ -177,7 +211,9 @@ pub fn tau_spec(text: &str) -> Result<TauSpec, UsageError> {
             ))
         })?;
     if seconds.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-        return Err(usage(format!("--taus {t:?}: every tau must be a positive number of seconds")));
+        return Err(usage(format!(
+            "--taus {t:?}: every tau must be a positive number of seconds"
+        )));
     }
     Ok(TauSpec::Seconds(seconds))
 }
@@ -187,16 +223,25 @@ pub fn confidence(text: &str) -> Result<Confidence, UsageError> {
         "1sigma" => Ok(Confidence::OneSigma),
         t => match t.parse::<f64>() {
             Ok(p) if p > 0.0 && p < 1.0 => Ok(Confidence::Level(p)),
-            _ => Err(usage(format!("--confidence {t:?}: expected 1sigma or a level in (0, 1)"))),
+            _ => Err(usage(format!(
+                "--confidence {t:?}: expected 1sigma or a level in (0, 1)"
+            ))),
         },
     }
 }
 
-fn avar_work(a: &AvarFlags, options: &mut serde_json::Map<String, Value>) -> Result<AvarWork, UsageError> {
+fn avar_work(
+    a: &AvarFlags,
+    options: &mut serde_json::Map<String, Value>,
+) -> Result<AvarWork, UsageError> {
     let statistics: Vec<Statistic> = a
         .statistics
         .iter()
-        .map(|s| s.trim().parse::<Statistic>().map_err(|e| usage(format!("--stat: {e}"))))
+        .map(|s| {
+            s.trim()
+                .parse::<Statistic>()
+                .map_err(|e| usage(format!("--stat: {e}")))
+        })
         .collect::<Result<_, _>>()?;
     if statistics.is_empty() {
         return Err(usage("--stat: name at least one statistic"));
@@ -225,7 +270,11 @@ fn output_config(a: &OutputArgs) -> Result<OutputConfig, UsageError> {
             "arrow" => formats.arrow = true,
             "csv" => formats.csv = true,
             "json" => formats.json = true,
-            other => return Err(usage(format!("--format {other:?}: expected arrow, csv or json"))),
+            other => {
+                return Err(usage(format!(
+                    "--format {other:?}: expected arrow, csv or json"
+                )))
+            }
         }
     }
     Ok(OutputConfig {

@@ -13,7 +13,11 @@ pub fn main() -> i32 {
         Ok(cli) => cli,
         Err(e) => {
             // --help and --version are not errors.
-            let code = if e.use_stderr() { run::EXIT_FATAL } else { run::EXIT_OK };
+            let code = if e.use_stderr() {
+                run::EXIT_FATAL
+            } else {
+                run::EXIT_OK
+            };
             let _ = e.print();
             return code;
         }

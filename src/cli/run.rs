@@ -28,8 +28,10 @@ impl Bar {
         let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
             let b = ProgressBar::new_spinner();
             b.set_style(
-                ProgressStyle::with_template("{spinner} {msg} {human_pos} rows ({per_sec}) {elapsed}")
-                    .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+                ProgressStyle::with_template(
+                    "{spinner} {msg} {human_pos} rows ({per_sec}) {elapsed}",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
             );
             b.enable_steady_tick(Duration::from_millis(200));
             b
@@ -55,7 +57,12 @@ impl Progress for Bar {
         self.index.set(self.index.get() + 1);
         if let Some(b) = &self.bar {
             b.set_position(0);
-            b.set_message(format!("[{}/{}] {}", self.index.get(), self.total, path.display()));
+            b.set_message(format!(
+                "[{}/{}] {}",
+                self.index.get(),
+                self.total,
+                path.display()
+            ));
         }
     }
     fn advance(&self, rows: u64) {
@@ -69,11 +76,17 @@ fn summary_line(r: &FileResult) -> String {
     let q = &r.quality;
     let mut notes = Vec::new();
     if q.gap_count > 0 {
-        notes.push(format!("{} gaps ({} samples missing)", q.gap_count, q.missing_samples));
+        notes.push(format!(
+            "{} gaps ({} samples missing)",
+            q.gap_count, q.missing_samples
+        ));
     }
     let nonfinite: u64 = q.channels.iter().map(|c| c.nonfinite_samples).sum();
     if nonfinite > 0 {
-        notes.push(format!("{nonfinite} non-finite samples ({})", q.nonfinite_policy));
+        notes.push(format!(
+            "{nonfinite} non-finite samples ({})",
+            q.nonfinite_policy
+        ));
     }
     for c in q.channels.iter().filter(|c| c.summary.possibly_saturated) {
         notes.push(format!("{} possibly saturated", c.name));
@@ -100,7 +113,10 @@ pub fn run(job: &Job) -> i32 {
     let bar = Bar::new(job.files.len(), job.output.quiet);
     if !job.output.json_stdout {
         if let Err(e) = std::fs::create_dir_all(&job.output.dir) {
-            eprintln!("imunoise: cannot create output folder {}: {e}", job.output.dir.display());
+            eprintln!(
+                "imunoise: cannot create output folder {}: {e}",
+                job.output.dir.display()
+            );
             return EXIT_FATAL;
         }
     }

@@ -15,6 +15,9 @@ impl WelchSink for WelchAccumulator {
     fn finish(self: Box<Self>) -> Result<Vec<Psd>, PsdError> {
         WelchAccumulator::finish(*self)
     }
+    fn peak_buffered_samples(&self) -> usize {
+        WelchAccumulator::peak_buffered_samples(self)
+    }
 }
 
 impl Backend for CpuBackend {

@@ -36,6 +36,9 @@ pub trait WelchSink: Send {
     fn push(&mut self, chunk: &[&[f64]]);
     /// The PSD of every channel, in channel order.
     fn finish(self: Box<Self>) -> Result<Vec<Psd>, PsdError>;
+    /// The most samples per channel held between pushes so far: the evidence that memory stays
+    /// bounded by the segment length, however long the recording.
+    fn peak_buffered_samples(&self) -> usize;
 }
 
 /// An estimator backend.

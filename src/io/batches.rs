@@ -156,7 +156,10 @@ fn csv_schema(mut file: File) -> Result<Schema, String> {
             };
             let mut field = Field::new(name, data_type, true);
             if let Some(unit) = unit {
-                field = field.with_metadata(std::collections::HashMap::from([("unit".to_string(), unit)]));
+                field = field.with_metadata(std::collections::HashMap::from([(
+                    "unit".to_string(),
+                    unit,
+                )]));
             }
             field
         })

@@ -122,11 +122,15 @@ pub fn find_time(
         return Ok(None);
     }
     let index = match &overrides.time_column {
-        Some(name) => Some(schema.index_of(name).map_err(|_| InputError::UnknownColumn {
-            path: path.to_path_buf(),
-            column: name.clone(),
-            available: column_list(schema),
-        })?),
+        Some(name) => Some(
+            schema
+                .index_of(name)
+                .map_err(|_| InputError::UnknownColumn {
+                    path: path.to_path_buf(),
+                    column: name.clone(),
+                    available: column_list(schema),
+                })?,
+        ),
         None => schema
             .fields()
             .iter()
@@ -323,7 +327,11 @@ mod tests {
     fn channels_take_unit_kind_and_scale_from_metadata_and_flags_override() {
         let schema = Schema::new(vec![
             field("time", DataType::Float64, &[]),
-            field("gx", DataType::Int16, &[("unit", "deg/s"), ("scale", "0.01")]),
+            field(
+                "gx",
+                DataType::Int16,
+                &[("unit", "deg/s"), ("scale", "0.01")],
+            ),
             field("ax", DataType::Float32, &[("unit", "g")]),
             field("label", DataType::Utf8, &[]),
         ]);

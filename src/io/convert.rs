@@ -97,7 +97,10 @@ impl TimeDecoder {
 }
 
 fn integer_ticks(array: &ArrayRef) -> Option<Vec<Option<i64>>> {
-    fn collect<T: ArrowPrimitiveType>(a: &ArrayRef, f: impl Fn(T::Native) -> i64) -> Vec<Option<i64>> {
+    fn collect<T: ArrowPrimitiveType>(
+        a: &ArrayRef,
+        f: impl Fn(T::Native) -> i64,
+    ) -> Vec<Option<i64>> {
         a.as_primitive::<T>().iter().map(|v| v.map(&f)).collect()
     }
     Some(match array.data_type() {

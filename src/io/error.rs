@@ -58,7 +58,9 @@ pub enum InputError {
         row: u64,
         this_s: f64,
     },
-    #[error("{path}: column {column:?}, row {row}: timestamp {this_s} s goes back from {previous_s} s")]
+    #[error(
+        "{path}: column {column:?}, row {row}: timestamp {this_s} s goes back from {previous_s} s"
+    )]
     NonMonotonicTime {
         path: PathBuf,
         column: String,
@@ -81,7 +83,9 @@ pub enum InputError {
         first: String,
         second: String,
     },
-    #[error("{path}: no sample rate: add schema metadata sample_rate_hz, a time column, or pass --rate")]
+    #[error(
+        "{path}: no sample rate: add schema metadata sample_rate_hz, a time column, or pass --rate"
+    )]
     NoRate { path: PathBuf },
     #[error("{path}: invalid sample rate {rate_hz} Hz from {source_name}")]
     InvalidRate {

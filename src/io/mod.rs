@@ -287,9 +287,8 @@ impl Iterator for BlockReader {
             None => None,
         };
         let mut channels = Vec::with_capacity(self.conversions.len());
-        for ((array, &(factor, offset)), spec) in columns
-            .zip(&self.conversions)
-            .zip(&self.recording.channels)
+        for ((array, &(factor, offset)), spec) in
+            columns.zip(&self.conversions).zip(&self.recording.channels)
         {
             let mut out = Vec::with_capacity(batch.num_rows());
             if !append_samples(array, factor, offset, &mut out) {

@@ -68,7 +68,9 @@ impl WelchAccumulator {
             Average::Median => 0,
         };
         let error = (!(rate_hz.is_finite() && rate_hz > 0.0)).then(|| {
-            PsdError::InvalidConfig(format!("sample rate must be finite and positive, got {rate_hz}"))
+            PsdError::InvalidConfig(format!(
+                "sample rate must be finite and positive, got {rate_hz}"
+            ))
         });
         let channels = (0..channels)
             .map(|_| Channel {
@@ -325,7 +327,12 @@ fn run(plan: &WelchPlan, worker: &mut SegmentWorker, task: Task<'_>) {
 }
 
 /// Segment starting at `offset` in `held ++ chunk`, as (part in `held`, part in `chunk`).
-fn segment<'a>(held: &'a [f64], chunk: &'a [f64], offset: usize, n: usize) -> (&'a [f64], &'a [f64]) {
+fn segment<'a>(
+    held: &'a [f64],
+    chunk: &'a [f64],
+    offset: usize,
+    n: usize,
+) -> (&'a [f64], &'a [f64]) {
     match offset.checked_sub(held.len()) {
         Some(start) => (&chunk[start..start + n], &[]),
         None => (&held[offset..], &chunk[..n - (held.len() - offset)]),

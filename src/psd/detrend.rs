@@ -50,12 +50,20 @@ impl Detrend {
                 // coefficients uncorrelated, so each is a plain ratio with no cancellation.
                 let centre = (n as f64 - 1.0) / 2.0;
                 let mean = (lane_sum(head) + lane_sum(tail)) / n as f64;
-                let sxt = lane_moment(head, -centre) + lane_moment(tail, head.len() as f64 - centre);
+                let sxt =
+                    lane_moment(head, -centre) + lane_moment(tail, head.len() as f64 - centre);
                 // Σ (t − t̄)² = n(n² − 1)/12; zero for n = 1, where the line is the point itself.
                 let stt = n as f64 * (n as f64 * n as f64 - 1.0) / 12.0;
                 let slope = if stt > 0.0 { sxt / stt } else { 0.0 };
                 window_line(head, w_head, mean, slope, -centre, out_head);
-                window_line(tail, w_tail, mean, slope, head.len() as f64 - centre, out_tail);
+                window_line(
+                    tail,
+                    w_tail,
+                    mean,
+                    slope,
+                    head.len() as f64 - centre,
+                    out_tail,
+                );
             }
         }
     }
@@ -104,7 +112,11 @@ fn lane_moment(x: &[f64], t0: f64) -> f64 {
         }
         t += LANES as f64;
     }
-    let tail: f64 = rest.iter().enumerate().map(|(j, v)| v * (t + j as f64)).sum();
+    let tail: f64 = rest
+        .iter()
+        .enumerate()
+        .map(|(j, v)| v * (t + j as f64))
+        .sum();
     acc.iter().sum::<f64>() + tail
 }
 
@@ -176,7 +188,8 @@ mod tests {
         let w = [0.5, 1.0, 2.0, 0.0];
         let mut out = [0.0; 4];
         Detrend::Constant.apply_windowed(&x[..3], &x[3..], &w, &mut out);
-        assert_eq!(out, [-1.5, -1.0, 0.0, 0.0]);
+        // mean 3: (1 − 3)·0.5, (2 − 3)·1, (3 − 3)·2, (6 − 3)·0.
+        assert_eq!(out, [-1.0, -1.0, 0.0, 0.0]);
         Detrend::None.apply_windowed(&x[..1], &x[1..], &w, &mut out);
         assert_eq!(out, [0.5, 2.0, 6.0, 0.0]);
     }

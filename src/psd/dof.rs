@@ -31,7 +31,9 @@
 //! Cost: one FFT of length nfft per overlapping lag, at most min(M, ⌈nperseg/step⌉) of them, so
 //! never more than the Welch estimate itself; memory O(nfft).
 
-use realfft::RealFftPlanner;
+use std::sync::Arc;
+
+use realfft::{RealFftPlanner, RealToComplex};
 
 use super::median::median_efficiency;
 use super::Average;
@@ -43,6 +45,9 @@ pub(crate) struct DofInputs<'a> {
     pub nfft: usize,
     pub segments: usize,
     pub average: Average,
+    /// A forward FFT of length nfft if one is at hand (planning one costs about as much as a few
+    /// transforms); otherwise one is planned.
+    pub fft: Option<Arc<dyn RealToComplex<f64>>>,
 }
 
 impl DofInputs<'_> {
@@ -56,7 +61,10 @@ impl DofInputs<'_> {
             return;
         }
         let sum_w2: f64 = self.window.iter().map(|w| w * w).sum();
-        let fft = RealFftPlanner::<f64>::new().plan_fft_forward(self.nfft);
+        let fft = match &self.fft {
+            Some(fft) if fft.len() == self.nfft => Arc::clone(fft),
+            _ => RealFftPlanner::<f64>::new().plan_fft_forward(self.nfft),
+        };
         let mut input = fft.make_input_vec();
         let mut spectrum = fft.make_output_vec();
         let mut scratch = fft.make_scratch_vec();
@@ -126,7 +134,10 @@ impl DofInputs<'_> {
 fn band_pair_sum(rho2: &[f64], nfft: usize, i0: usize, i1: usize) -> f64 {
     let k = i1 - i0 + 1;
     let diff: f64 = rho2[0] * k as f64
-        + 2.0 * (1..k).map(|j| (k - j) as f64 * rho2[fold(j, nfft)]).sum::<f64>();
+        + 2.0
+            * (1..k)
+                .map(|j| (k - j) as f64 * rho2[fold(j, nfft)])
+                .sum::<f64>();
     let centre = i0 + i1;
     let sum: f64 = (2 * i0..=2 * i1)
         .map(|s| (k - s.abs_diff(centre)) as f64 * rho2[fold(s, nfft)])
@@ -151,6 +162,7 @@ mod tests {
             nfft,
             segments,
             average: Average::Mean,
+            fft: None,
         }
     }
 
@@ -160,12 +172,18 @@ mod tests {
         let dof = inputs(&w, 16, 16, 5);
         let per_bin = dof.per_bin();
         assert!((per_bin[0] - 5.0).abs() < 1e-12, "DC is chi2_1 per segment");
-        assert!((per_bin[8] - 5.0).abs() < 1e-12, "Nyquist is chi2_1 per segment");
+        assert!(
+            (per_bin[8] - 5.0).abs() < 1e-12,
+            "Nyquist is chi2_1 per segment"
+        );
         for v in &per_bin[1..8] {
             assert!((v - 10.0).abs() < 1e-12, "{v}");
         }
         let bands = dof.per_band(&[(1, 3), (4, 7)]);
-        assert!((bands[0] - 30.0).abs() < 1e-11 && (bands[1] - 40.0).abs() < 1e-11, "{bands:?}");
+        assert!(
+            (bands[0] - 30.0).abs() < 1e-11 && (bands[1] - 40.0).abs() < 1e-11,
+            "{bands:?}"
+        );
     }
 
     #[test]
@@ -178,7 +196,11 @@ mod tests {
         let m = 9.0;
         let expected = 2.0 * m / (1.0 + 2.0 * (1.0 - 1.0 / m) / 36.0);
         let per_bin = inputs(&w, 32, 64, 9).per_bin();
-        assert!((per_bin[10] - expected).abs() < 1e-10, "{} vs {expected}", per_bin[10]);
+        assert!(
+            (per_bin[10] - expected).abs() < 1e-10,
+            "{} vs {expected}",
+            per_bin[10]
+        );
     }
 
     #[test]

@@ -7,7 +7,13 @@
 //!
 //! Bands are aligned to decades (edges at 10^(j/bins_per_decade) Hz), so spectra of different
 //! recordings are binned alike. At low frequency the bands are narrower than Δf and most hold no
-//! bin; there each bin is kept on its own. DC is dropped (it holds the removed trend, not noise).
+//! bin; there each bin is kept on its own. DC is dropped (it holds the removed trend, not noise), and
+//! so is the Nyquist bin of an even nfft: one-sided spectra (scipy's convention) do not double it,
+//! so for broadband noise it reads half the density and would bias the top band low.
+//!
+//! Not corrected: the per-segment detrend also removes part of the power of the lowest bins (with
+//! Hann and constant detrend, bin 1 reads 1/6 low for white noise; linear detrend reaches further).
+//! Those bins are kept, single, as scipy reports them; a fit may skip them.
 //!
 //! Degrees of freedom: the exact EDF of the band mean for white Gaussian input (see `dof.rs`),
 //! 2·K·M / (correction for the correlation between overlapping segments and between neighbouring
@@ -35,10 +41,13 @@ pub struct BinnedPsd {
     pub dof: Vec<f64>,
 }
 
-/// Averages the bins of `psd` (DC excluded) in bands of 1/`bins_per_decade` decade.
-/// `bins_per_decade = 0` keeps every bin on its own (DC still dropped).
+/// Averages the bins of `psd` (DC and Nyquist excluded) in bands of 1/`bins_per_decade` decade.
+/// `bins_per_decade = 0` keeps every bin on its own (DC and Nyquist still dropped).
 pub fn log_bin(psd: &Psd, bins_per_decade: u32) -> BinnedPsd {
-    let n = psd.freq_hz.len().min(psd.value.len());
+    let mut n = psd.freq_hz.len().min(psd.value.len());
+    if psd.nfft.is_multiple_of(2) && n == psd.nfft / 2 + 1 {
+        n -= 1; // the Nyquist bin
+    }
     let bands = group(&psd.freq_hz[..n], bins_per_decade);
     let half = psd.bin_width_hz() / 2.0;
     let mut out = BinnedPsd {
@@ -51,11 +60,13 @@ pub fn log_bin(psd: &Psd, bins_per_decade: u32) -> BinnedPsd {
     };
     for &(i0, i1) in &bands {
         let k = (i1 - i0 + 1) as f64;
-        out.freq_hz.push(psd.freq_hz[i0..=i1].iter().sum::<f64>() / k);
+        out.freq_hz
+            .push(psd.freq_hz[i0..=i1].iter().sum::<f64>() / k);
         out.value.push(psd.value[i0..=i1].iter().sum::<f64>() / k);
         out.f_lo_hz.push(psd.freq_hz[i0] - half);
         out.f_hi_hz.push(psd.freq_hz[i1] + half);
-        out.bins.push(u32::try_from(i1 - i0 + 1).unwrap_or(u32::MAX));
+        out.bins
+            .push(u32::try_from(i1 - i0 + 1).unwrap_or(u32::MAX));
     }
     out
 }
@@ -72,8 +83,9 @@ fn group(freq_hz: &[f64], bins_per_decade: u32) -> Vec<(usize, usize)> {
     };
     let mut bands: Vec<(usize, usize)> = Vec::new();
     let mut current = None;
-    for k in 0..freq_hz.len() {
-        if !(freq_hz[k] > 0.0) {
+    for (k, &f) in freq_hz.iter().enumerate() {
+        // Written so that NaN is skipped too.
+        if f.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             continue;
         }
         let j = band(k);
@@ -99,6 +111,7 @@ fn band_dof(psd: &Psd, bands: &[(usize, usize)]) -> Vec<f64> {
             nfft: psd.nfft,
             segments: psd.segments,
             average: psd.average,
+            fft: None,
         }
         .per_band(bands),
         _ => bands
@@ -118,8 +131,9 @@ mod tests {
         // Δf), from there bands of 10^0.1 ≈ 1.26× collect several bins.
         let f: Vec<f64> = (0..=100).map(f64::from).collect();
         let bands = group(&f, 10);
-        assert_eq!(&bands[..4], &[(1, 1), (2, 2), (3, 3), (4, 4)]);
-        assert_eq!(bands.last(), Some(&(80, 100)));
+        // Band edges 10^(j/10): [3.98, 5.01) holds 4 and 5; [79.4, 100) holds 80..=99.
+        assert_eq!(&bands[..4], &[(1, 1), (2, 2), (3, 3), (4, 5)]);
+        assert_eq!(&bands[bands.len() - 2..], &[(80, 99), (100, 100)]);
         let covered: usize = bands.iter().map(|(a, b)| b - a + 1).sum();
         assert_eq!(covered, 100, "every bin but DC in exactly one band");
         for w in bands.windows(2) {

@@ -167,8 +167,8 @@ impl WelchPlan {
     pub(crate) fn fft(&self) -> &dyn RealToComplex<f64> {
         &*self.0.fft
     }
-    pub(crate) fn shared_window(&self) -> Arc<[f64]> {
-        Arc::clone(&self.0.window)
+    pub(crate) fn shared_fft(&self) -> Arc<dyn RealToComplex<f64>> {
+        Arc::clone(&self.0.fft)
     }
 }
 
@@ -197,7 +197,10 @@ mod tests {
     #[test]
     fn defaults_are_scipys() {
         let plan = WelchConfig::new(100).validate().unwrap();
-        assert_eq!((plan.noverlap(), plan.step(), plan.nfft(), plan.bins()), (50, 50, 100, 51));
+        assert_eq!(
+            (plan.noverlap(), plan.step(), plan.nfft(), plan.bins()),
+            (50, 50, 100, 51)
+        );
         assert_eq!(plan.segments_for(99), 0);
         assert_eq!(plan.segments_for(100), 1);
         assert_eq!(plan.segments_for(149), 1);

@@ -135,6 +135,32 @@ pub fn welch(x: &[f64], rate_hz: f64, cfg: &WelchConfig) -> Result<Vec<f64>, Psd
         .collect())
 }
 
+/// Worst relative deviation of `value` from `reference`, the comparison every implementation
+/// (fast CPU path, GPU backend) is checked with: |v − r|/|r| over bins with |r| above
+/// `floor`·max|r|, and |v − r|/(`floor`·max|r|) below it, where rounding noise of a near-zero bin
+/// (DC after detrending) is no error. A length mismatch or a NaN gives infinity.
+pub fn relative_error(value: &[f64], reference: &[f64], floor: f64) -> f64 {
+    if value.len() != reference.len() {
+        return f64::INFINITY;
+    }
+    let max = reference.iter().fold(0.0_f64, |m, r| m.max(r.abs()));
+    let small = floor * max;
+    value
+        .iter()
+        .zip(reference)
+        .map(|(v, r)| {
+            let d = (v - r).abs();
+            if d == 0.0 {
+                0.0
+            } else if d.is_nan() {
+                f64::INFINITY
+            } else {
+                d / r.abs().max(small)
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -146,7 +172,10 @@ mod tests {
         let x = dft(&[1.0, 2.0, 3.0, 4.0], 4);
         let expected = [(10.0, 0.0), (-2.0, 2.0), (-2.0, 0.0), (-2.0, -2.0)];
         for (got, (re, im)) in x.iter().zip(expected) {
-            assert!((got.re - re).abs() < 1e-14 && (got.im - im).abs() < 1e-14, "{got}");
+            assert!(
+                (got.re - re).abs() < 1e-14 && (got.im - im).abs() < 1e-14,
+                "{got}"
+            );
         }
     }
 
@@ -157,7 +186,10 @@ mod tests {
         let energy: f64 = x.iter().map(|v| v * v).sum();
         for nfft in [13, 16, 21] {
             let spectral: f64 = dft(&x, nfft).iter().map(|c| c.norm_sqr()).sum();
-            assert!((spectral - nfft as f64 * energy).abs() < 1e-9 * spectral, "nfft {nfft}");
+            assert!(
+                (spectral - nfft as f64 * energy).abs() < 1e-9 * spectral,
+                "nfft {nfft}"
+            );
         }
     }
 
@@ -203,6 +235,18 @@ mod tests {
     fn linear_detrend_solves_least_squares() {
         let x: Vec<f64> = (0..10).map(|t| 1.5 + 0.5 * t as f64).collect();
         assert!(detrend(&x, Detrend::Linear).iter().all(|r| r.abs() < 1e-13));
+    }
+
+    #[test]
+    fn relative_error_floors_tiny_bins() {
+        let r = [1.0, 1e-20, 2.0];
+        assert_eq!(relative_error(&[1.0, 0.0, 2.0], &r, 1e-12), 1e-20 / 2e-12);
+        assert!((relative_error(&[1.1, 1e-20, 2.0], &r, 1e-12) - 0.1).abs() < 1e-12);
+        assert_eq!(relative_error(&[1.0], &r, 1e-12), f64::INFINITY);
+        assert_eq!(
+            relative_error(&[f64::NAN, 0.0, 2.0], &r, 1e-12),
+            f64::INFINITY
+        );
     }
 
     #[test]

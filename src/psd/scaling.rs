@@ -30,7 +30,7 @@ impl Scaling {
 /// Folds a two-sided spectrum of a real signal onto f ≥ 0: every bin except DC and (for even
 /// `nfft`) Nyquist has a mirror image at −f whose power it takes over, so it is doubled.
 pub(crate) fn fold_one_sided(values: &mut [f64], nfft: usize) {
-    let end = if nfft % 2 == 0 {
+    let end = if nfft.is_multiple_of(2) {
         values.len().saturating_sub(1)
     } else {
         values.len()

@@ -41,7 +41,13 @@ impl SegmentWorker {
     }
 
     /// Adds |X_k|² of the segment `head ++ tail` to `acc` (length nfft/2 + 1).
-    pub(crate) fn accumulate(&mut self, plan: &WelchPlan, head: &[f64], tail: &[f64], acc: &mut [f64]) {
+    pub(crate) fn accumulate(
+        &mut self,
+        plan: &WelchPlan,
+        head: &[f64],
+        tail: &[f64],
+        acc: &mut [f64],
+    ) {
         let spectrum = self.transform(plan, head, tail);
         for (a, x) in acc.iter_mut().zip(spectrum) {
             *a += x.re * x.re + x.im * x.im;
@@ -50,7 +56,13 @@ impl SegmentWorker {
 
     /// Writes |X_k|² of the segment `head ++ tail` into `row` (length nfft/2 + 1), for median
     /// averaging, which keeps every segment.
-    pub(crate) fn power_into(&mut self, plan: &WelchPlan, head: &[f64], tail: &[f64], row: &mut [f64]) {
+    pub(crate) fn power_into(
+        &mut self,
+        plan: &WelchPlan,
+        head: &[f64],
+        tail: &[f64],
+        row: &mut [f64],
+    ) {
         let spectrum = self.transform(plan, head, tail);
         for (r, x) in row.iter_mut().zip(spectrum) {
             *r = x.re * x.re + x.im * x.im;

@@ -80,6 +80,7 @@ impl Psd {
             nfft: plan.nfft(),
             segments,
             average: plan.config().average,
+            fft: Some(plan.shared_fft()),
         }
         .per_bin()
     }

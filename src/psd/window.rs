@@ -180,10 +180,7 @@ mod tests {
             Window::Boxcar,
         ] {
             assert_eq!(win.to_string().parse::<Window>().unwrap(), win);
-            assert_eq!(
-                serde_json::to_string(&win).unwrap(),
-                format!("\"{win}\"")
-            );
+            assert_eq!(serde_json::to_string(&win).unwrap(), format!("\"{win}\""));
         }
         assert_eq!("Hanning".parse::<Window>().unwrap(), Window::Hann);
         let err = "kaiser".parse::<Window>().unwrap_err();
@@ -194,9 +191,6 @@ mod tests {
     fn custom_length_must_match() {
         let w = Window::Custom(vec![1.0, 2.0, 3.0]);
         assert_eq!(w.coefficients(3).unwrap(), vec![1.0, 2.0, 3.0]);
-        assert!(matches!(
-            w.coefficients(4),
-            Err(PsdError::InvalidConfig(_))
-        ));
+        assert!(matches!(w.coefficients(4), Err(PsdError::InvalidConfig(_))));
     }
 }

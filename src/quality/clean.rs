@@ -190,7 +190,9 @@ impl Cleaner {
         if dt <= GAP_FACTOR * self.period_s {
             return Ok(None);
         }
-        let missing = ((dt / self.period_s).round() as u64).saturating_sub(1).max(1);
+        let missing = ((dt / self.period_s).round() as u64)
+            .saturating_sub(1)
+            .max(1);
         if self.options.gaps == GapPolicy::Error {
             return Err(InputError::Gap {
                 path: self.path.clone(),
@@ -277,7 +279,12 @@ impl Cleaner {
                             path: self.path.clone(),
                             column: self.names[c].clone(),
                             row,
-                            value: if x.is_nan() { "NaN or null" } else { "infinite" }.into(),
+                            value: if x.is_nan() {
+                                "NaN or null"
+                            } else {
+                                "infinite"
+                            }
+                            .into(),
                         });
                     }
                 }

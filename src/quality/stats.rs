@@ -171,20 +171,29 @@ mod tests {
             s.push(1e9 + if i % 2 == 0 { 1.0 } else { -1.0 });
         }
         let sum = s.summary();
-        assert!((sum.std - (1000.0f64 / 999.0).sqrt()).abs() < 1e-6, "{}", sum.std);
+        assert!(
+            (sum.std - (1000.0f64 / 999.0).sqrt()).abs() < 1e-6,
+            "{}",
+            sum.std
+        );
         assert_eq!(sum.smallest_step, Some(2.0));
     }
 
     #[test]
     fn slices_and_single_samples_agree() {
-        let xs: Vec<f64> = (0..5000).map(|i| 3.0 + ((i * 7919) % 101) as f64 * 0.01).collect();
+        let xs: Vec<f64> = (0..5000)
+            .map(|i| 3.0 + ((i * 7919) % 101) as f64 * 0.01)
+            .collect();
         let mut one = ChannelStats::new();
         xs.iter().for_each(|&x| one.push(x));
         let mut blocks = ChannelStats::new();
         xs.chunks(333).for_each(|c| blocks.push_slice(c));
         let (a, b) = (one.summary(), blocks.summary());
         assert!((a.mean - b.mean).abs() < 1e-12 && (a.std - b.std).abs() < 1e-12);
-        assert_eq!((a.min, a.max, a.samples_at_min, a.samples_at_max), (b.min, b.max, b.samples_at_min, b.samples_at_max));
+        assert_eq!(
+            (a.min, a.max, a.samples_at_min, a.samples_at_max),
+            (b.min, b.max, b.samples_at_min, b.samples_at_max)
+        );
         assert!((a.smallest_step.unwrap() - b.smallest_step.unwrap()).abs() < 1e-15);
     }
 

@@ -20,7 +20,9 @@ where
         let mut out = BufWriter::new(file);
         write(&mut out).map_err(|e| OutputError::new(&tmp, e))?;
         out.flush().map_err(|e| OutputError::new(&tmp, e))?;
-        out.get_ref().sync_all().map_err(|e| OutputError::new(&tmp, e))?;
+        out.get_ref()
+            .sync_all()
+            .map_err(|e| OutputError::new(&tmp, e))?;
         fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))
     })();
     if result.is_err() {

@@ -121,8 +121,8 @@ pub fn avar_table(results: &[&FileResult]) -> Table {
     let mut t = Table::default();
     for r in results {
         for c in r.avar.iter().flatten() {
-            let unit = channel_unit(&r.recording, &c.channel)
-                .map_or("raw".to_string(), |u| u.to_string());
+            let unit =
+                channel_unit(&r.recording, &c.channel).map_or("raw".to_string(), |u| u.to_string());
             for d in &c.statistics {
                 let n = d.m.len();
                 let dev = d.deviation();
@@ -131,7 +131,10 @@ pub fn avar_table(results: &[&FileResult]) -> Table {
                         ("file".into(), Column::Str(vec![file_name(&r.recording); n])),
                         ("channel".into(), Column::Str(vec![c.channel.clone(); n])),
                         ("unit".into(), Column::Str(vec![unit.clone(); n])),
-                        ("statistic".into(), Column::Str(vec![d.statistic.to_string(); n])),
+                        (
+                            "statistic".into(),
+                            Column::Str(vec![d.statistic.to_string(); n]),
+                        ),
                         ("m".into(), Column::U64(d.m.clone())),
                         ("tau_s".into(), Column::F64(d.tau_s.clone())),
                         ("deviation".into(), Column::F64(dev)),
@@ -205,6 +208,7 @@ pub fn file_json(r: &FileResult) -> Value {
         },
         "quality": r.quality,
         "timings": r.timings,
+        "footprint": r.footprint,
     });
     if let Some(psd) = &r.psd {
         entry["psd"] = psd
@@ -288,7 +292,12 @@ pub fn document(
 
 /// Writes a table in the asked formats as `dir/stem.arrow` and `dir/stem.csv` (nothing for an empty
 /// table).
-pub fn write_table(dir: &Path, stem: &str, table: &Table, formats: Formats) -> Result<(), OutputError> {
+pub fn write_table(
+    dir: &Path,
+    stem: &str,
+    table: &Table,
+    formats: Formats,
+) -> Result<(), OutputError> {
     if table.rows() == 0 {
         return Ok(());
     }

@@ -138,7 +138,10 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let t = Table {
             columns: vec![
-                ("file".into(), Column::Str(vec!["a,b.arrow".into(), "c".into()])),
+                (
+                    "file".into(),
+                    Column::Str(vec!["a,b.arrow".into(), "c".into()]),
+                ),
                 ("x".into(), Column::F64(vec![0.1 + 0.2, 1e-300])),
                 ("n".into(), Column::U64(vec![1, 2])),
             ],
@@ -146,7 +149,10 @@ mod tests {
         };
         t.write_csv(&dir.path().join("t.csv")).unwrap();
         let csv = std::fs::read_to_string(dir.path().join("t.csv")).unwrap();
-        assert_eq!(csv, "file,x,n\n\"a,b.arrow\",0.30000000000000004,1\nc,1e-300,2\n");
+        assert_eq!(
+            csv,
+            "file,x,n\n\"a,b.arrow\",0.30000000000000004,1\nc,1e-300,2\n"
+        );
         t.write_arrow(&dir.path().join("t.arrow")).unwrap();
         let f = std::fs::File::open(dir.path().join("t.arrow")).unwrap();
         let mut r = arrow_ipc::reader::FileReader::try_new(f, None).unwrap();

@@ -17,7 +17,12 @@ fn json_of(out: &std::process::Output) -> Value {
 fn info_on_the_sample_reports_rate_units_channels_and_duration() {
     let root = repo_root();
     let out = imunoise(&["info", "data/sample_imu.arrow", "--json"], &root);
-    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let doc = json_of(&out);
     assert_eq!(doc["schema_version"], 1);
     assert_eq!(doc["command"], "info");
@@ -38,9 +43,20 @@ fn info_on_the_sample_reports_rate_units_channels_and_duration() {
     assert_eq!(channels[3]["scale"], 1e-5);
     assert_eq!(channels[6]["kind"], "temperature");
     // The accelerometer is stored in counts of 1e-5 m/s^2: the quantisation step is found.
-    let step = file["quality"]["channels"][3]["smallest_step"].as_f64().unwrap();
+    let step = file["quality"]["channels"][3]["smallest_step"]
+        .as_f64()
+        .unwrap();
     assert!((step - 1e-5).abs() < 1e-12, "{step}");
-    assert!(String::from_utf8_lossy(&out.stderr).is_empty(), "nothing on stderr in a pipe with --json");
+    // In a pipe: per-file status lines on stderr, but no progress bar (no carriage returns or escapes).
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.starts_with("ok    data/sample_imu.arrow: 7 channels"),
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains('\r') && !stderr.contains('\u{1b}'),
+        "{stderr:?}"
+    );
 }
 
 #[test]
@@ -49,10 +65,22 @@ fn analyze_writes_every_table_and_the_document_atomically() {
     let out_dir = dir.path().join("run");
     let sample = repo_root().join("data/sample_imu.arrow");
     let out = imunoise(
-        &["analyze", sample.to_str().unwrap(), "-o", out_dir.to_str().unwrap(), "--nperseg", "2048"],
+        &[
+            "analyze",
+            sample.to_str().unwrap(),
+            "-o",
+            out_dir.to_str().unwrap(),
+            "--nperseg",
+            "2048",
+        ],
         dir.path(),
     );
-    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let mut names: Vec<String> = std::fs::read_dir(&out_dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -60,9 +88,18 @@ fn analyze_writes_every_table_and_the_document_atomically() {
     names.sort();
     assert_eq!(
         names,
-        ["avar.arrow", "avar.csv", "psd.arrow", "psd.csv", "psd_binned.arrow", "psd_binned.csv", "results.json"]
+        [
+            "avar.arrow",
+            "avar.csv",
+            "psd.arrow",
+            "psd.csv",
+            "psd_binned.arrow",
+            "psd_binned.csv",
+            "results.json"
+        ]
     );
-    let doc: Value = serde_json::from_slice(&std::fs::read(out_dir.join("results.json")).unwrap()).unwrap();
+    let doc: Value =
+        serde_json::from_slice(&std::fs::read(out_dir.join("results.json")).unwrap()).unwrap();
     let psd = &doc["files"][0]["psd"][0];
     assert_eq!(psd["channel"], "gyro_x");
     assert_eq!(psd["unit"], "(rad/s)^2/Hz");
@@ -91,29 +128,57 @@ fn analyze_writes_every_table_and_the_document_atomically() {
         assert!(lo[i] < dev[i] && dev[i] < hi[i], "interval at {i}");
     }
     // OADEV at tau = 0.01 s of white noise N: N/sqrt(tau).
-    assert!((dev[0] / (n_rad / 0.01f64.sqrt()) - 1.0).abs() < 0.03, "{}", dev[0]);
+    assert!(
+        (dev[0] / (n_rad / 0.01f64.sqrt()) - 1.0).abs() < 0.03,
+        "{}",
+        dev[0]
+    );
     let csv = std::fs::read_to_string(out_dir.join("avar.csv")).unwrap();
-    assert!(csv.starts_with("file,channel,unit,statistic,m,tau_s,deviation,deviation_lo,deviation_hi,"));
+    assert!(
+        csv.starts_with("file,channel,unit,statistic,m,tau_s,deviation,deviation_lo,deviation_hi,")
+    );
 }
 
 #[test]
 fn one_bad_file_in_a_batch_does_not_stop_the_others() {
     let dir = tempfile::tempdir().unwrap();
     let good = dir.path().join("good.arrow");
-    write_ipc_file(&good, &batch(&[f64_col("g", noise(4096, 1), Some("rad/s"))], Some(50.0)), 1000);
+    write_ipc_file(
+        &good,
+        &batch(&[f64_col("g", noise(4096, 1), Some("rad/s"))], Some(50.0)),
+        1000,
+    );
     let mut bad_values = noise(4096, 2);
     bad_values[3000] = f64::NAN;
     let bad = dir.path().join("bad.arrow");
-    write_ipc_file(&bad, &batch(&[f64_col("g", bad_values, Some("rad/s"))], Some(50.0)), 1000);
+    write_ipc_file(
+        &bad,
+        &batch(&[f64_col("g", bad_values, Some("rad/s"))], Some(50.0)),
+        1000,
+    );
     let out = imunoise(
-        &["avar", "bad.arrow", "missing.csv", "good.arrow", "-o", "out", "--format", "csv,json"],
+        &[
+            "avar",
+            "bad.arrow",
+            "missing.csv",
+            "good.arrow",
+            "-o",
+            "out",
+            "--format",
+            "csv,json",
+        ],
         dir.path(),
     );
     assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.contains("bad.arrow: column \"g\", row 3000: non-finite"), "{stderr}");
+    assert!(
+        stderr.contains("bad.arrow: column \"g\", row 3000: non-finite"),
+        "{stderr}"
+    );
     assert!(stderr.contains("missing.csv: file not found"), "{stderr}");
-    let doc: Value = serde_json::from_slice(&std::fs::read(dir.path().join("out/results.json")).unwrap()).unwrap();
+    let doc: Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("out/results.json")).unwrap())
+            .unwrap();
     assert_eq!(doc["summary"]["failed"], 2);
     assert_eq!(doc["summary"]["ok"], 1);
     assert_eq!(doc["files"][0]["error"]["row"], 3000);
@@ -121,10 +186,19 @@ fn one_bad_file_in_a_batch_does_not_stop_the_others() {
     assert_eq!(doc["files"][2]["status"], "ok");
     let csv = std::fs::read_to_string(dir.path().join("out/avar.csv")).unwrap();
     assert!(csv.lines().skip(1).all(|l| l.starts_with("good.arrow,")));
-    assert!(!dir.path().join("out/avar.arrow").exists(), "--format limits the outputs");
+    assert!(
+        !dir.path().join("out/avar.arrow").exists(),
+        "--format limits the outputs"
+    );
     let leftovers: Vec<_> = std::fs::read_dir(dir.path().join("out"))
         .unwrap()
-        .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().ends_with(".tmp"))
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .ends_with(".tmp")
+        })
         .collect();
     assert!(leftovers.is_empty());
 }
@@ -154,7 +228,15 @@ fn help_explains_options_with_units() {
     let out = imunoise(&["psd", "--help"], &repo_root());
     assert_eq!(out.status.code(), Some(0));
     let help = String::from_utf8_lossy(&out.stdout);
-    for needle in ["--nperseg", "samples", "Hz", "--on-gap", "--window", "hann", "--json"] {
+    for needle in [
+        "--nperseg",
+        "samples",
+        "Hz",
+        "--on-gap",
+        "--window",
+        "hann",
+        "--json",
+    ] {
         assert!(help.contains(needle), "help lacks {needle}");
     }
     let out = imunoise(&["avar", "--help"], &repo_root());

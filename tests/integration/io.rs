@@ -15,7 +15,10 @@ use super::support::*;
 const RATE: f64 = 100.0;
 
 /// Reads every clean sample of a file (info pass + collecting through the AV path's series).
-fn read_all(path: &Path, inputs: &Inputs) -> Result<(Vec<Vec<f64>>, imunoise::quality::QualityReport), Error> {
+fn read_all(
+    path: &Path,
+    inputs: &Inputs,
+) -> Result<(Vec<Vec<f64>>, imunoise::quality::QualityReport), Error> {
     let rec = io::open(path, &inputs.open)?;
     let mut cleaner = imunoise::quality::Cleaner::new(&rec, inputs.quality);
     let mut out = vec![Vec::new(); rec.channels.len()];
@@ -33,7 +36,10 @@ fn read_all(path: &Path, inputs: &Inputs) -> Result<(Vec<Vec<f64>>, imunoise::qu
 }
 
 fn two_channels(n: usize) -> (Vec<f64>, Vec<f64>) {
-    (noise(n, 1), noise(n, 2).iter().map(|x| 9.8 + 0.01 * x).collect())
+    (
+        noise(n, 1),
+        noise(n, 2).iter().map(|x| 9.8 + 0.01 * x).collect(),
+    )
 }
 
 fn recording(dir: &Path, name: &str, cols: Vec<Col>, rate: Option<f64>) -> std::path::PathBuf {
@@ -96,10 +102,17 @@ fn integer_columns_are_scaled_and_projection_keeps_the_order_asked() {
     ];
     let path = recording(dir.path(), "int.arrow", cols, Some(RATE));
     for name in ["r.parquet"] {
-        write_parquet(&dir.path().join(name), &batch(&[
-            f64_col("a", vec![1.0; 10], None),
-            f64_col("b", vec![2.0; 10], None),
-        ], Some(RATE)), 4);
+        write_parquet(
+            &dir.path().join(name),
+            &batch(
+                &[
+                    f64_col("a", vec![1.0; 10], None),
+                    f64_col("b", vec![2.0; 10], None),
+                ],
+                Some(RATE),
+            ),
+            4,
+        );
     }
     let mut inputs = Inputs::default();
     inputs.open.columns.channels = vec!["other".into(), "counts".into()];
@@ -118,7 +131,10 @@ fn missing_and_empty_files_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("nope.arrow");
     let e = err_of(&missing, &Inputs::default());
-    assert!(matches!(e, Error::Input(InputError::NotFound { .. })), "{e}");
+    assert!(
+        matches!(e, Error::Input(InputError::NotFound { .. })),
+        "{e}"
+    );
     assert!(e.to_string().contains("nope.arrow"));
     let empty = dir.path().join("empty.parquet");
     std::fs::write(&empty, b"").unwrap();
@@ -137,16 +153,30 @@ fn no_numeric_column_and_unknown_column_are_errors() {
     }];
     let path = recording(dir.path(), "text.arrow", cols, Some(RATE));
     let e = err_of(&path, &Inputs::default());
-    assert!(matches!(e, Error::Input(InputError::NoNumericColumn { .. })), "{e}");
+    assert!(
+        matches!(e, Error::Input(InputError::NoNumericColumn { .. })),
+        "{e}"
+    );
     assert!(e.to_string().contains("label"));
 
-    let path = recording(dir.path(), "ok.arrow", vec![f64_col("gx", noise(10, 1), None)], Some(RATE));
+    let path = recording(
+        dir.path(),
+        "ok.arrow",
+        vec![f64_col("gx", noise(10, 1), None)],
+        Some(RATE),
+    );
     let mut inputs = Inputs::default();
     inputs.open.columns.channels = vec!["gy".into()];
     let e = err_of(&path, &inputs);
-    assert!(matches!(e, Error::Input(InputError::UnknownColumn { .. })), "{e}");
+    assert!(
+        matches!(e, Error::Input(InputError::UnknownColumn { .. })),
+        "{e}"
+    );
     assert_eq!(e.column(), Some("gy"));
-    assert!(e.to_string().contains("gx"), "lists the available columns: {e}");
+    assert!(
+        e.to_string().contains("gx"),
+        "lists the available columns: {e}"
+    );
 }
 
 #[test]
@@ -160,7 +190,10 @@ fn unknown_unit_names_column_and_unit() {
     );
     let e = err_of(&path, &Inputs::default());
     assert_eq!(e.column(), Some("gx"));
-    assert!(e.to_string().contains("deg/fortnight") && e.to_string().contains("u.arrow"), "{e}");
+    assert!(
+        e.to_string().contains("deg/fortnight") && e.to_string().contains("u.arrow"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -178,7 +211,10 @@ fn non_finite_samples_error_with_row_or_follow_the_policy() {
         Some(RATE),
     );
     let e = err_of(&path, &Inputs::default());
-    assert!(matches!(e, Error::Input(InputError::NonFinite { .. })), "{e}");
+    assert!(
+        matches!(e, Error::Input(InputError::NonFinite { .. })),
+        "{e}"
+    );
     assert_eq!((e.column(), e.row()), (Some("gyro"), Some(1234)));
     assert!(e.to_string().contains("nan.arrow"));
 
@@ -230,8 +266,16 @@ fn time_column_problems_name_the_row() {
     let g = noise(n, 7);
     let step = 10_000_000i64; // 10 ms in ns
     let cases: Vec<(&str, Box<dyn Fn(usize, i64) -> i64>, u64)> = vec![
-        ("dup.arrow", Box::new(move |i, t| if i == 700 { t - step } else { t }), 700),
-        ("back.arrow", Box::new(move |i, t| if i == 900 { t - 5 * step } else { t }), 900),
+        (
+            "dup.arrow",
+            Box::new(move |i, t| if i == 700 { t - step } else { t }),
+            700,
+        ),
+        (
+            "back.arrow",
+            Box::new(move |i, t| if i == 900 { t - 5 * step } else { t }),
+            900,
+        ),
     ];
     for (name, edit, row) in cases {
         let path = recording(
@@ -241,8 +285,16 @@ fn time_column_problems_name_the_row() {
             None,
         );
         let e = err_of(&path, &Inputs::default());
-        assert_eq!((e.column(), e.row()), (Some("time"), Some(row)), "{name}: {e}");
-        let expected = if name == "dup.arrow" { "repeats" } else { "goes back" };
+        assert_eq!(
+            (e.column(), e.row()),
+            (Some("time"), Some(row)),
+            "{name}: {e}"
+        );
+        let expected = if name == "dup.arrow" {
+            "repeats"
+        } else {
+            "goes back"
+        };
         assert!(e.to_string().contains(expected), "{e}");
     }
 }
@@ -258,13 +310,20 @@ fn gaps_are_errors_unless_ignored_or_filled() {
         dir.path(),
         "gap.arrow",
         vec![
-            time_col(n, RATE, move |i, t| if i >= 1500 { t + 5 * step } else { t }),
+            time_col(
+                n,
+                RATE,
+                move |i, t| if i >= 1500 { t + 5 * step } else { t },
+            ),
             f64_col("g", g.clone(), None),
         ],
         None,
     );
     let e = err_of(&path, &Inputs::default());
-    assert!(matches!(e, Error::Input(InputError::Gap { missing: 5, .. })), "{e}");
+    assert!(
+        matches!(e, Error::Input(InputError::Gap { missing: 5, .. })),
+        "{e}"
+    );
     assert_eq!(e.row(), Some(1500));
     assert!(e.to_string().contains("14.99"), "names where: {e}");
 
@@ -293,32 +352,62 @@ fn rate_conflicts_are_errors_and_the_rate_source_is_reported() {
     let path = recording(
         dir.path(),
         "conflict.arrow",
-        vec![time_col(n, 200.0, |_, t| t), f64_col("g", noise(n, 1), None)],
+        vec![
+            time_col(n, 200.0, |_, t| t),
+            f64_col("g", noise(n, 1), None),
+        ],
         Some(100.0),
     );
     let e = io::open(&path, &OpenOptions::default()).unwrap_err();
     assert!(matches!(e, InputError::RateConflict { .. }), "{e}");
-    assert!(e.to_string().contains("100") && e.to_string().contains("200"), "{e}");
+    assert!(
+        e.to_string().contains("100") && e.to_string().contains("200"),
+        "{e}"
+    );
 
-    let path = recording(dir.path(), "meta.arrow", vec![f64_col("g", noise(n, 1), None)], Some(100.0));
+    let path = recording(
+        dir.path(),
+        "meta.arrow",
+        vec![f64_col("g", noise(n, 1), None)],
+        Some(100.0),
+    );
     let mut o = OpenOptions::default();
     o.rate_hz = Some(207.0);
-    assert!(matches!(io::open(&path, &o).unwrap_err(), InputError::RateConflict { .. }));
+    assert!(matches!(
+        io::open(&path, &o).unwrap_err(),
+        InputError::RateConflict { .. }
+    ));
     o.rate_hz = Some(100.2);
     let r = io::open(&path, &o).unwrap();
-    assert_eq!((r.rate_hz, r.rate_source), (100.0, io::RateSource::Metadata));
+    assert_eq!(
+        (r.rate_hz, r.rate_source),
+        (100.0, io::RateSource::Metadata)
+    );
 
-    let path = recording(dir.path(), "none.arrow", vec![f64_col("g", noise(n, 1), None)], None);
-    assert!(matches!(io::open(&path, &OpenOptions::default()).unwrap_err(), InputError::NoRate { .. }));
+    let path = recording(
+        dir.path(),
+        "none.arrow",
+        vec![f64_col("g", noise(n, 1), None)],
+        None,
+    );
+    assert!(matches!(
+        io::open(&path, &OpenOptions::default()).unwrap_err(),
+        InputError::NoRate { .. }
+    ));
     o.rate_hz = Some(50.0);
-    assert_eq!(io::open(&path, &o).unwrap().rate_source, io::RateSource::Flag);
+    assert_eq!(
+        io::open(&path, &o).unwrap().rate_source,
+        io::RateSource::Flag
+    );
 
     // Timestamps jittered and rounded to 1 ms at 207 Hz still give 207 Hz.
     let path = recording(
         dir.path(),
         "jitter.arrow",
         vec![
-            time_col(5000, 207.0, |i, t| (t + ((i * 7919) % 13) as i64 * 10_000) / 1_000_000 * 1_000_000),
+            time_col(5000, 207.0, |i, t| {
+                (t + ((i * 7919) % 13) as i64 * 10_000) / 1_000_000 * 1_000_000
+            }),
             f64_col("g", noise(5000, 1), None),
         ],
         None,
@@ -330,7 +419,12 @@ fn rate_conflicts_are_errors_and_the_rate_source_is_reported() {
 #[test]
 fn too_short_recordings_say_what_was_needed() {
     let dir = tempfile::tempdir().unwrap();
-    let path = recording(dir.path(), "short.arrow", vec![f64_col("g", noise(300, 1), None)], Some(RATE));
+    let path = recording(
+        dir.path(),
+        "short.arrow",
+        vec![f64_col("g", noise(300, 1), None)],
+        Some(RATE),
+    );
     let work = Work {
         welch: Some(imunoise::pipeline::WelchWork {
             plan: imunoise::psd::WelchConfig::new(1024).validate().unwrap(),
@@ -338,9 +432,25 @@ fn too_short_recordings_say_what_was_needed() {
         }),
         avar: None,
     };
-    let e = pipeline::run(&path, &Inputs::default(), &work, &imunoise::estimate::CpuBackend, &Silent)
-        .unwrap_err();
-    assert!(matches!(e, Error::Input(InputError::TooShort { needed: 1024, available: 300, .. })), "{e}");
+    let e = pipeline::run(
+        &path,
+        &Inputs::default(),
+        &work,
+        &imunoise::estimate::CpuBackend,
+        &Silent,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            Error::Input(InputError::TooShort {
+                needed: 1024,
+                available: 300,
+                ..
+            })
+        ),
+        "{e}"
+    );
     assert!(e.to_string().contains("short.arrow") && e.to_string().contains("nperseg"));
 
     let work = Work {
@@ -351,9 +461,25 @@ fn too_short_recordings_say_what_was_needed() {
             confidence: imunoise::avar::Confidence::OneSigma,
         }),
     };
-    let e = pipeline::run(&path, &Inputs::default(), &work, &imunoise::estimate::CpuBackend, &Silent)
-        .unwrap_err();
-    assert!(matches!(e, Error::Input(InputError::TooShort { needed: 401, available: 300, .. })), "{e}");
+    let e = pipeline::run(
+        &path,
+        &Inputs::default(),
+        &work,
+        &imunoise::estimate::CpuBackend,
+        &Silent,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            Error::Input(InputError::TooShort {
+                needed: 401,
+                available: 300,
+                ..
+            })
+        ),
+        "{e}"
+    );
     assert!(e.to_string().contains("tau = 2 s"), "{e}");
 }
 
@@ -372,8 +498,14 @@ fn truncated_and_corrupt_files_are_errors_not_panics() {
         // Cut in the middle of the data.
         std::fs::write(path, &bytes[..bytes.len() / 2]).unwrap();
         let e = err_of(path, &Inputs::default());
-        assert!(matches!(e, Error::Input(InputError::Corrupt { .. })), "{}: {e}", path.display());
-        assert!(e.to_string().contains(path.file_name().unwrap().to_str().unwrap()));
+        assert!(
+            matches!(e, Error::Input(InputError::Corrupt { .. })),
+            "{}: {e}",
+            path.display()
+        );
+        assert!(e
+            .to_string()
+            .contains(path.file_name().unwrap().to_str().unwrap()));
         // Garbage in the middle of an intact-length file.
         let mut garbled = bytes.clone();
         let mid = garbled.len() / 3;
@@ -392,5 +524,7 @@ fn truncated_and_corrupt_files_are_errors_not_panics() {
 fn read_truncated_stream_rows(path: &Path) -> Option<u64> {
     let bytes = std::fs::read(path).unwrap();
     std::fs::write(path, &bytes[..bytes.len() * 2 / 3]).unwrap();
-    read_all(path, &Inputs::default()).ok().map(|(_, r)| r.samples_out)
+    read_all(path, &Inputs::default())
+        .ok()
+        .map(|(_, r)| r.samples_out)
 }

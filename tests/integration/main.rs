@@ -1,3 +1,9 @@
 //! One integration-test binary; each area of the library has its own module.
+mod support;
+
 mod avar;
+mod cli;
+mod io;
 mod psd;
+mod readers_prop;
+mod streaming;

@@ -20,7 +20,10 @@ fn valid_files(dir: &Path) -> Vec<(std::path::PathBuf, Vec<u8>)> {
     );
     let mut out = Vec::new();
     for (name, write) in [
-        ("f.arrow", write_ipc_file as fn(&Path, &arrow_array::RecordBatch, usize)),
+        (
+            "f.arrow",
+            write_ipc_file as fn(&Path, &arrow_array::RecordBatch, usize),
+        ),
         ("f.arrows", write_ipc_stream),
         ("f.parquet", write_parquet),
     ] {
@@ -29,7 +32,11 @@ fn valid_files(dir: &Path) -> Vec<(std::path::PathBuf, Vec<u8>)> {
         out.push((p.clone(), std::fs::read(&p).unwrap()));
     }
     let csv = dir.join("f.csv");
-    write_csv(&csv, &[("g", Some("deg/s")), ("a", None)], &[noise(200, 3), noise(200, 4)]);
+    write_csv(
+        &csv,
+        &[("g", Some("deg/s")), ("a", None)],
+        &[noise(200, 3), noise(200, 4)],
+    );
     out.push((csv.clone(), std::fs::read(&csv).unwrap()));
     out
 }

@@ -20,7 +20,9 @@ pub fn f64_col(name: &str, values: Vec<f64>, unit: Option<&str>) -> Col {
     Col {
         name: name.to_string(),
         array: Arc::new(Float64Array::from(values)),
-        meta: unit.map(|u| vec![("unit", u.to_string())]).unwrap_or_default(),
+        meta: unit
+            .map(|u| vec![("unit", u.to_string())])
+            .unwrap_or_default(),
     }
 }
 
@@ -58,16 +60,26 @@ pub fn batch(cols: &[Col], rate_hz: Option<f64>) -> RecordBatch {
     let fields: Vec<Field> = cols
         .iter()
         .map(|c| {
-            let meta: HashMap<String, String> =
-                c.meta.iter().map(|(k, v)| (k.to_string(), v.clone())).collect();
+            let meta: HashMap<String, String> = c
+                .meta
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.clone()))
+                .collect();
             Field::new(&c.name, c.array.data_type().clone(), true).with_metadata(meta)
         })
         .collect();
     let mut schema = Schema::new(fields);
     if let Some(r) = rate_hz {
-        schema = schema.with_metadata([("sample_rate_hz".to_string(), r.to_string())].into());
+        schema = schema.with_metadata(HashMap::from([(
+            "sample_rate_hz".to_string(),
+            r.to_string(),
+        )]));
     }
-    RecordBatch::try_new(Arc::new(schema), cols.iter().map(|c| c.array.clone()).collect()).unwrap()
+    RecordBatch::try_new(
+        Arc::new(schema),
+        cols.iter().map(|c| c.array.clone()).collect(),
+    )
+    .unwrap()
 }
 
 /// Writes `batch` as an Arrow IPC file in record batches of `rows_per_batch` rows.

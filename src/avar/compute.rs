@@ -1,0 +1,125 @@
+//! The entry points: validate, build S once, run the estimator, then identify the noise and the
+//! confidence interval at every τ.
+
+use rayon::prelude::*;
+
+use super::confidence::variance_bounds;
+use super::edf::edf;
+use super::noise_id::identify;
+use super::prefix::PrefixSums;
+use super::variances::variances;
+use super::{AvarError, Confidence, Deviations, Statistic, TauGrid};
+
+/// Computes `stat` of rate samples `y` (sampled at `rate_hz`) at the averaging factors of `grid`,
+/// with confidence intervals at `conf` from the EDF of the automatically identified noise type.
+///
+/// ```
+/// use imunoise::avar::{compute, Confidence, Statistic, TauGrid};
+/// // The 9-sample frequency set of NIST SP 1065 (section 12.1), τ₀ = 1 s.
+/// let y = [892.0, 809.0, 823.0, 798.0, 671.0, 644.0, 883.0, 903.0, 677.0];
+/// let d = compute(&y, 1.0, &TauGrid::Octave, Statistic::Adev, Confidence::OneSigma)?;
+/// assert_eq!(d.m, vec![1, 2]);
+/// assert!((d.deviation()[0] - 91.22945).abs() < 1e-5);
+/// # Ok::<(), imunoise::avar::AvarError>(())
+/// ```
+///
+/// # Errors
+/// [`AvarError::InvalidRate`] for a non-finite or non-positive rate,
+/// [`AvarError::InvalidConfidence`] for a level outside (0, 1), [`AvarError::TooShort`] when the
+/// data cannot support the statistic at m = 1 or at a factor of an explicit list,
+/// [`AvarError::ZeroFactor`] for m = 0 in an explicit list, [`AvarError::NoValidTau`] when the grid
+/// leaves no factor, [`AvarError::NonFinite`] with the index of the first NaN/infinite sample.
+pub fn compute(
+    y: &[f64],
+    rate_hz: f64,
+    grid: &TauGrid,
+    stat: Statistic,
+    conf: Confidence,
+) -> Result<Deviations, AvarError> {
+    let mut all = compute_statistics(y, rate_hz, grid, &[stat], conf)?;
+    Ok(all.remove(0))
+}
+
+/// Like [`compute`] for several statistics of the same data, building the prefix sums (the only
+/// O(N) memory) once. Results are in the order of `stats`.
+pub fn compute_statistics(
+    y: &[f64],
+    rate_hz: f64,
+    grid: &TauGrid,
+    stats: &[Statistic],
+    conf: Confidence,
+) -> Result<Vec<Deviations>, AvarError> {
+    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+        return Err(AvarError::InvalidRate(rate_hz));
+    }
+    let p = conf.probability()?;
+    let n = y.len();
+    let mut plans = Vec::with_capacity(stats.len());
+    for &stat in stats {
+        plans.push((stat, factors(grid, n, stat)?));
+    }
+    let ps = PrefixSums::new(y)?;
+    Ok(plans
+        .into_iter()
+        .map(|(stat, ms)| estimate(&ps, rate_hz, ms, stat, p))
+        .collect())
+}
+
+/// The grid's factors, or the error that explains why there are none (or why one asked for cannot
+/// be had).
+fn factors(grid: &TauGrid, n: usize, stat: Statistic) -> Result<Vec<u64>, AvarError> {
+    let too_short = |m: u64| AvarError::TooShort {
+        n,
+        needed: stat.min_samples(m),
+        statistic: stat,
+        m,
+    };
+    if n < stat.min_samples(1) {
+        return Err(too_short(1));
+    }
+    if let TauGrid::Explicit(list) = grid {
+        if list.contains(&0) {
+            return Err(AvarError::ZeroFactor);
+        }
+        let max = stat.max_factor(n);
+        if let Some(&m) = list.iter().filter(|&&m| m > max).max() {
+            return Err(too_short(m));
+        }
+    }
+    let ms = grid.factors(n, stat);
+    if ms.is_empty() {
+        return Err(AvarError::NoValidTau {
+            n,
+            statistic: stat,
+            grid: grid.to_string(),
+        });
+    }
+    Ok(ms)
+}
+
+fn estimate(ps: &PrefixSums, rate_hz: f64, ms: Vec<u64>, stat: Statistic, p: f64) -> Deviations {
+    let n = ps.len();
+    let variance = variances(ps, &ms, stat);
+    let per_tau: Vec<(i8, f64, (f64, f64))> = ms
+        .par_iter()
+        .zip(variance.par_iter())
+        .map(|(&m, &var)| {
+            let alpha = identify(ps, m, stat).alpha;
+            let e = edf(stat, alpha, m, n);
+            (alpha, e, variance_bounds(var, e, p))
+        })
+        .collect();
+    Deviations {
+        statistic: stat,
+        rate_hz,
+        tau_s: ms.iter().map(|&m| m as f64 / rate_hz).collect(),
+        n_terms: ms.iter().map(|&m| stat.n_terms(n, m)).collect(),
+        alpha: per_tau.iter().map(|t| t.0).collect(),
+        edf: per_tau.iter().map(|t| t.1).collect(),
+        variance_lo: per_tau.iter().map(|t| t.2 .0).collect(),
+        variance_hi: per_tau.iter().map(|t| t.2 .1).collect(),
+        variance,
+        m: ms,
+        confidence: p,
+    }
+}

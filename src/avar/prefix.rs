@@ -1,0 +1,223 @@
+//! The cumulative sum S of the mean-removed rate samples, the one array every estimator reads.
+//!
+//! Why care: an Allan-family term is a second (or third) difference of S, a small number formed
+//! from large ones. S must therefore be accurate to about one rounding of its own magnitude at every
+//! index, not carry an error that grows along the recording. Three things make it so:
+//!
+//! - the mean is removed first (a gyro bias of 1e6 times the noise would otherwise make S grow
+//!   like j·bias and leave no digits for the noise), and the mean itself comes from an exact
+//!   double-double sum;
+//! - S is built as Y_j − j·ȳ, where Y_j = Σ_{k<j} y_k is carried in double-double at every 4096-sample
+//!   boundary and j·ȳ is formed exactly (two-product), so boundary values are correct to one
+//!   rounding however long the recording;
+//! - between boundaries a plain f64 running sum of y_k − ȳ adds at most ~4096 roundings of the
+//!   local partial sum, far below one rounding of S for any realistic recording.
+//!
+//! Never f32: its 24 bits are gone after a few thousand samples of cumulative sum.
+//!
+//! Both passes run on all cores. The boundary grid is fixed (it does not depend on the number of
+//! threads), so S is bit-for-bit the same on any machine with IEEE f64.
+
+use rayon::prelude::*;
+
+use super::AvarError;
+
+/// Samples between exact (double-double) anchors of S.
+const ANCHOR: usize = 4096;
+/// Anchored blocks filled together by one task: four independent running sums interleave, so the
+/// fill is not bound by the latency of one long chain of additions.
+const LANES: usize = 4;
+
+/// S_j = Σ_{k<j} (y_k − ȳ) for j = 0..=N, with the mean ȳ that was removed.
+#[derive(Debug, Clone)]
+pub struct PrefixSums {
+    s: Vec<f64>,
+    mean: f64,
+}
+
+impl PrefixSums {
+    /// Builds S from rate samples `y`. Fails on the first non-finite sample (with its index), or if
+    /// the samples' sum overflows f64.
+    pub fn new(y: &[f64]) -> Result<PrefixSums, AvarError> {
+        let n = y.len();
+        if n == 0 {
+            return Ok(PrefixSums {
+                s: vec![0.0],
+                mean: 0.0,
+            });
+        }
+        // Pass 1: exact sum of every anchored block (also detects NaN/Inf: they poison the sum).
+        let block_sums: Vec<(f64, f64)> = y.par_chunks(ANCHOR).map(dd_sum).collect();
+        let mut anchors: Vec<(f64, f64)> = Vec::with_capacity(block_sums.len());
+        let (mut hi, mut lo) = (0.0f64, 0.0f64);
+        for &(s, e) in &block_sums {
+            anchors.push((hi, lo));
+            let (t, err) = two_sum(hi, s);
+            hi = t;
+            lo += err + e;
+        }
+        if !(hi.is_finite() && lo.is_finite()) {
+            return Err(match y.iter().position(|v| !v.is_finite()) {
+                Some(index) => AvarError::NonFinite { index },
+                None => AvarError::Overflow,
+            });
+        }
+        let mean = (hi + lo) / n as f64;
+        // S at each anchor: Y_j − j·ȳ in double-double, rounded once.
+        let bases: Vec<f64> = anchors
+            .iter()
+            .enumerate()
+            .map(|(b, &(yh, yl))| {
+                let j = (b * ANCHOR) as f64;
+                let p = j * mean;
+                let pe = j.mul_add(mean, -p);
+                let (dh, dl) = two_sum(yh, -p);
+                dh + (dl + (yl - pe))
+            })
+            .collect();
+        // Pass 2: fill S between anchors. `vec!` of zeros maps fresh pages, so the first touch
+        // (and its page faults) happens in parallel here.
+        let mut s = vec![0.0f64; n + 1];
+        s[1..]
+            .par_chunks_mut(ANCHOR * LANES)
+            .zip(y.par_chunks(ANCHOR * LANES))
+            .zip(bases.par_chunks(LANES))
+            .for_each(|((out, ys), bs)| fill_group(out, ys, bs, mean));
+        Ok(PrefixSums { s, mean })
+    }
+
+    /// S_0..=S_N (length N + 1).
+    pub fn s(&self) -> &[f64] {
+        &self.s
+    }
+
+    /// Number of rate samples N.
+    pub fn len(&self) -> usize {
+        self.s.len() - 1
+    }
+
+    /// Whether there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The mean that was removed.
+    pub fn mean(&self) -> f64 {
+        self.mean
+    }
+}
+
+/// Error-free sum: a + b = s + e exactly (Knuth's TwoSum).
+#[inline(always)]
+pub(crate) fn two_sum(a: f64, b: f64) -> (f64, f64) {
+    let s = a + b;
+    let z = s - a;
+    (s, (a - (s - z)) + (b - z))
+}
+
+/// Double-double sum of a block, four interleaved accumulators for throughput.
+fn dd_sum(x: &[f64]) -> (f64, f64) {
+    let mut s = [0.0f64; 4];
+    let mut c = [0.0f64; 4];
+    let chunks = x.chunks_exact(4);
+    let rest = chunks.remainder();
+    for ch in chunks {
+        for l in 0..4 {
+            let (t, e) = two_sum(s[l], ch[l]);
+            s[l] = t;
+            c[l] += e;
+        }
+    }
+    for &v in rest {
+        let (t, e) = two_sum(s[0], v);
+        s[0] = t;
+        c[0] += e;
+    }
+    let (mut hi, mut lo) = (0.0f64, c.iter().sum::<f64>());
+    for v in s {
+        let (t, e) = two_sum(hi, v);
+        hi = t;
+        lo += e;
+    }
+    (hi, lo)
+}
+
+/// Fills S_{j+1} for the samples of up to `LANES` consecutive anchored blocks, starting each block
+/// from its anchor value.
+fn fill_group(out: &mut [f64], y: &[f64], bases: &[f64], mean: f64) {
+    if bases.len() == LANES && y.len() == LANES * ANCHOR {
+        let (y0, rest) = y.split_at(ANCHOR);
+        let (y1, rest) = rest.split_at(ANCHOR);
+        let (y2, y3) = rest.split_at(ANCHOR);
+        let (o0, rest) = out.split_at_mut(ANCHOR);
+        let (o1, rest) = rest.split_at_mut(ANCHOR);
+        let (o2, o3) = rest.split_at_mut(ANCHOR);
+        let mut a = [bases[0], bases[1], bases[2], bases[3]];
+        for k in 0..ANCHOR {
+            a[0] += y0[k] - mean;
+            a[1] += y1[k] - mean;
+            a[2] += y2[k] - mean;
+            a[3] += y3[k] - mean;
+            o0[k] = a[0];
+            o1[k] = a[1];
+            o2[k] = a[2];
+            o3[k] = a[3];
+        }
+    } else {
+        for ((o, ys), &base) in out
+            .chunks_mut(ANCHOR)
+            .zip(y.chunks(ANCHOR))
+            .zip(bases.iter())
+        {
+            let mut a = base;
+            for (dst, &v) in o.iter_mut().zip(ys) {
+                a += v - mean;
+                *dst = a;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn matches_exact_integer_sums() {
+        // Integers/2^10 with a big offset: every S_j is exactly representable, so the result must be
+        // exact (the mean is chosen to be exactly representable too).
+        let n = 3 * ANCHOR * LANES + 123;
+        let raw: Vec<i64> = (0..n as i64).map(|i| (i * 7919 % 2003) - 1001).collect();
+        let offset = 1i64 << 40;
+        let total: i64 = raw.iter().sum();
+        let shift = total / n as i64; // make the exact mean an integer
+        let ints: Vec<i64> = raw.iter().map(|r| r - shift).collect();
+        let fix = ints.iter().sum::<i64>();
+        let mut ints = ints;
+        ints[0] -= fix; // sum is now exactly 0
+        let y: Vec<f64> = ints.iter().map(|&v| (v + offset) as f64 / 1024.0).collect();
+        let ps = PrefixSums::new(&y).unwrap();
+        assert_eq!(ps.mean(), offset as f64 / 1024.0);
+        let mut acc = 0i64;
+        for j in 0..=n {
+            assert_eq!(ps.s()[j], acc as f64 / 1024.0, "j = {j}");
+            if j < n {
+                acc += ints[j];
+            }
+        }
+    }
+
+    #[test]
+    fn reports_first_non_finite_and_overflow() {
+        let mut y = vec![1.0; 10_000];
+        y[7000] = f64::NAN;
+        y[9000] = f64::INFINITY;
+        assert_eq!(
+            PrefixSums::new(&y).unwrap_err(),
+            AvarError::NonFinite { index: 7000 }
+        );
+        let big = vec![f64::MAX; 4];
+        assert_eq!(PrefixSums::new(&big).unwrap_err(), AvarError::Overflow);
+        assert_eq!(PrefixSums::new(&[]).unwrap().len(), 0);
+    }
+}
