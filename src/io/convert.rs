@@ -27,7 +27,7 @@ pub fn append_samples(array: &ArrayRef, factor: f64, offset: f64, out: &mut Vec<
     }
     let lin = |v: f64| v * factor + offset;
     match array.data_type() {
-        DataType::Float64 => push::<Float64Type>(array, out, |v| lin(v)),
+        DataType::Float64 => push::<Float64Type>(array, out, lin),
         DataType::Float32 => push::<Float32Type>(array, out, |v| lin(v as f64)),
         DataType::Int8 => push::<Int8Type>(array, out, |v| lin(v as f64)),
         DataType::Int16 => push::<Int16Type>(array, out, |v| lin(v as f64)),

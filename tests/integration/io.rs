@@ -101,19 +101,14 @@ fn integer_columns_are_scaled_and_projection_keeps_the_order_asked() {
         f64_col("other", noise(1000, 3), None),
     ];
     let path = recording(dir.path(), "int.arrow", cols, Some(RATE));
-    for name in ["r.parquet"] {
-        write_parquet(
-            &dir.path().join(name),
-            &batch(
-                &[
-                    f64_col("a", vec![1.0; 10], None),
-                    f64_col("b", vec![2.0; 10], None),
-                ],
-                Some(RATE),
-            ),
-            4,
-        );
-    }
+    let ab = batch(
+        &[
+            f64_col("a", vec![1.0; 10], None),
+            f64_col("b", vec![2.0; 10], None),
+        ],
+        Some(RATE),
+    );
+    write_parquet(&dir.path().join("r.parquet"), &ab, 4);
     let mut inputs = Inputs::default();
     inputs.open.columns.channels = vec!["other".into(), "counts".into()];
     let (data, _) = read_all(&path, &inputs).unwrap();
@@ -218,10 +213,12 @@ fn non_finite_samples_error_with_row_or_follow_the_policy() {
     assert_eq!((e.column(), e.row()), (Some("gyro"), Some(1234)));
     assert!(e.to_string().contains("nan.arrow"));
 
-    let mut inputs = Inputs::default();
-    inputs.quality = QualityOptions {
-        nonfinite: NonFinitePolicy::Drop,
-        gaps: GapPolicy::Error,
+    let mut inputs = Inputs {
+        quality: QualityOptions {
+            nonfinite: NonFinitePolicy::Drop,
+            gaps: GapPolicy::Error,
+        },
+        ..Default::default()
     };
     let (data, report) = read_all(&path, &inputs).unwrap();
     assert_eq!(report.dropped_rows, 3);
@@ -265,7 +262,8 @@ fn time_column_problems_name_the_row() {
     let n = 2000;
     let g = noise(n, 7);
     let step = 10_000_000i64; // 10 ms in ns
-    let cases: Vec<(&str, Box<dyn Fn(usize, i64) -> i64>, u64)> = vec![
+    type Edit = Box<dyn Fn(usize, i64) -> i64>;
+    let cases: Vec<(&str, Edit, u64)> = vec![
         (
             "dup.arrow",
             Box::new(move |i, t| if i == 700 { t - step } else { t }),
@@ -371,8 +369,10 @@ fn rate_conflicts_are_errors_and_the_rate_source_is_reported() {
         vec![f64_col("g", noise(n, 1), None)],
         Some(100.0),
     );
-    let mut o = OpenOptions::default();
-    o.rate_hz = Some(207.0);
+    let mut o = OpenOptions {
+        rate_hz: Some(207.0),
+        ..Default::default()
+    };
     assert!(matches!(
         io::open(&path, &o).unwrap_err(),
         InputError::RateConflict { .. }

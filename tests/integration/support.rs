@@ -7,7 +7,7 @@ use std::process::{Command, Output};
 use std::sync::Arc;
 
 use arrow_array::{ArrayRef, Float64Array, RecordBatch, TimestampNanosecondArray};
-use arrow_schema::{DataType, Field, Schema, TimeUnit};
+use arrow_schema::{Field, Schema};
 
 /// A column for a test recording.
 pub struct Col {
@@ -131,11 +131,6 @@ pub fn write_csv(path: &Path, names: &[(&str, Option<&str>)], columns: &[Vec<f64
         s.push('\n');
     }
     std::fs::write(path, s).unwrap();
-}
-
-/// The data type of nanosecond timestamps, for schema checks.
-pub fn ns_timestamp() -> DataType {
-    DataType::Timestamp(TimeUnit::Nanosecond, None)
 }
 
 /// Runs the binary with `args`; stdin closed.
