@@ -36,13 +36,6 @@ struct PrefixParams {
 
 var<workgroup> red: array<f32, 272>;
 
-// a + b in 64-bit two's complement, (low, high) words.
-fn add64(a: vec2<u32>, b: vec2<u32>) -> vec2<u32> {
-    let lo = a.x + b.x;
-    let carry = select(0u, 1u, lo < a.x);
-    return vec2<u32>(lo, a.y + b.y + carry);
-}
-
 // a - b in 64-bit two's complement.
 fn sub64(a: vec2<u32>, b: vec2<u32>) -> vec2<u32> {
     let borrow = select(0u, 1u, a.x < b.x);

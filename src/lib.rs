@@ -1,11 +1,20 @@
-//! imunoise: noise characterisation of inertial sensors (crate docs are replaced by the README later).
+#![doc = include_str!("../README.md")]
+//!
+//! # Library map
+//! Data flows one way: [`io`] (read, convert to SI) → [`quality`] (screen, apply policies) →
+//! [`estimate`] (a [`estimate::Backend`]: [`psd`] Welch and [`avar`] Allan family) → [`report`]
+//! (tables and JSON). [`pipeline::run`] takes one recording through all of it; the CLI is a thin
+//! layer over it.
 pub mod avar;
 pub mod estimate;
+pub mod gpu;
 pub mod io;
+pub mod model;
 pub mod pipeline;
 pub mod psd;
 pub mod quality;
 pub mod report;
+pub mod sim;
 pub mod units;
 
 mod error;

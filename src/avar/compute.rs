@@ -28,7 +28,9 @@ use super::{AvarError, Confidence, Deviations, Statistic, TauGrid};
 /// [`AvarError::InvalidConfidence`] for a level outside (0, 1), [`AvarError::TooShort`] when the
 /// data cannot support the statistic at m = 1 or at a factor of an explicit list,
 /// [`AvarError::ZeroFactor`] for m = 0 in an explicit list, [`AvarError::NoValidTau`] when the grid
-/// leaves no factor, [`AvarError::NonFinite`] with the index of the first NaN/infinite sample.
+/// leaves no factor, [`AvarError::NonFinite`] with the index of the first NaN/infinite sample,
+/// [`AvarError::Overflow`] when the samples are so large (beyond ~1e154) that their sum or squared
+/// differences overflow f64.
 pub fn compute(
     y: &[f64],
     rate_hz: f64,
@@ -59,10 +61,10 @@ pub fn compute_statistics(
         plans.push((stat, factors(grid, n, stat)?));
     }
     let ps = PrefixSums::new(y)?;
-    Ok(plans
+    plans
         .into_iter()
         .map(|(stat, ms)| estimate(&ps, rate_hz, ms, stat, p))
-        .collect())
+        .collect()
 }
 
 /// The grid's factors, or the error that explains why there are none (or why one asked for cannot
@@ -97,9 +99,19 @@ fn factors(grid: &TauGrid, n: usize, stat: Statistic) -> Result<Vec<u64>, AvarEr
     Ok(ms)
 }
 
-fn estimate(ps: &PrefixSums, rate_hz: f64, ms: Vec<u64>, stat: Statistic, p: f64) -> Deviations {
+fn estimate(
+    ps: &PrefixSums,
+    rate_hz: f64,
+    ms: Vec<u64>,
+    stat: Statistic,
+    p: f64,
+) -> Result<Deviations, AvarError> {
     let n = ps.len();
     let variance = variances(ps, &ms, stat);
+    // Samples near 1e154 and beyond square to infinity: no variance to report.
+    if variance.iter().any(|v| !v.is_finite()) {
+        return Err(AvarError::Overflow);
+    }
     let per_tau: Vec<(i8, f64, (f64, f64))> = ms
         .par_iter()
         .zip(variance.par_iter())
@@ -109,7 +121,7 @@ fn estimate(ps: &PrefixSums, rate_hz: f64, ms: Vec<u64>, stat: Statistic, p: f64
             (alpha, e, variance_bounds(var, e, p))
         })
         .collect();
-    Deviations {
+    Ok(Deviations {
         statistic: stat,
         rate_hz,
         tau_s: ms.iter().map(|&m| m as f64 / rate_hz).collect(),
@@ -121,5 +133,5 @@ fn estimate(ps: &PrefixSums, rate_hz: f64, ms: Vec<u64>, stat: Statistic, p: f64
         variance,
         m: ms,
         confidence: p,
-    }
+    })
 }

@@ -38,8 +38,9 @@ pub enum AvarError {
     /// A NaN or infinite sample; `index` is its position in the input (the first one found).
     #[error("sample {index} is not finite (NaN or infinite)")]
     NonFinite { index: usize },
-    /// Every sample is finite but their sum overflows f64 (samples near 1e308): no mean exists.
-    #[error("the samples' sum overflows f64; rescale the data")]
+    /// Every sample is finite but their sum or their squared differences overflow f64 (samples
+    /// beyond ~1e154): rescale the data.
+    #[error("the samples are too large: their sum or squared differences overflow f64; rescale the data")]
     Overflow,
     /// A name that does not parse into a statistic or a tau grid.
     #[error("unknown {what} {name:?} (expected {expected})")]

@@ -185,16 +185,33 @@ fn by_b1(ps: &PrefixSums, m: usize) -> NoiseEstimate {
             method: NoiseIdMethod::B1 { ratio },
         };
     }
-    // Phase noise (μ = −2): white or flicker? R(n) = MVAR/AVAR falls as 1/m for white PM.
-    let terms = (n + 2 - 3 * m) as f64;
-    let mvar = modified_sums(s, &[m as u64])[0] / (2.0 * mf.powi(4) * terms);
-    let rn = mvar / avar;
-    let flicker = 3.37 / (1.04 + 3.0 * (std::f64::consts::PI * mf).ln());
-    let white = 1.0 / mf;
+    // Phase noise (μ = −2): white or flicker? R(n) = MVAR/AVAR falls as 1/m for white PM. MVAR
+    // needs 3m samples; beyond that (overlapping Allan goes to N/2) it is taken at the largest
+    // factor that has one, with the boundary for that factor.
+    let mr = m.min((n + 1) / 3).max(1);
+    let mrf = mr as f64;
+    let terms = (n + 2 - 3 * mr) as f64;
+    let mvar = modified_sums(s, &[mr as u64])[0] / (2.0 * mrf.powi(4) * terms);
+    let rn = mvar / if mr == m { avar } else { oavar_exact(s, mr) };
+    let flicker = 3.37 / (1.04 + 3.0 * (std::f64::consts::PI * mrf).ln());
+    let white = 1.0 / mrf;
     NoiseEstimate {
         alpha: if rn > (flicker * white).sqrt() { 1 } else { 2 },
         method: NoiseIdMethod::B1Rn { ratio, rn },
     }
+}
+
+/// Overlapping Allan variance at factor m, every term.
+fn oavar_exact(s: &[f64], m: usize) -> f64 {
+    let n = s.len() - 1;
+    let terms = n + 1 - 2 * m;
+    let sum: f64 = (0..terms)
+        .map(|j| {
+            let v = (s[j + 2 * m] - s[j + m]) - (s[j + m] - s[j]);
+            v * v
+        })
+        .sum();
+    sum / (2.0 * (m * m) as f64 * terms as f64)
 }
 
 /// The τ-exponent μ of the Allan variance (σ² ∝ τ^μ) whose expected B1 ratio is closest to the

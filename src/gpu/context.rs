@@ -32,6 +32,9 @@ pub struct ContextOptions {
     pub allow_f64: bool,
     /// Which adapter to prefer when there are several.
     pub power_preference: wgpu::PowerPreference,
+    /// Backends to look for adapters on; `None` means `WGPU_BACKEND` if set, else all compiled in
+    /// (Vulkan, Metal, DX12).
+    pub backends: Option<wgpu::Backends>,
     /// Most bytes of device buffers one job allocates at a time; larger inputs are processed in
     /// more, smaller batches. Chunking for the device's binding limits happens regardless.
     pub memory_budget: u64,
@@ -43,18 +46,21 @@ impl Default for ContextOptions {
             limits: None,
             allow_f64: true,
             power_preference: wgpu::PowerPreference::HighPerformance,
+            backends: None,
             memory_budget: 512 << 20,
         }
     }
 }
 
-/// The first adapter wgpu offers for `power` (backends from `WGPU_BACKEND` if set, else all
-/// compiled in: Vulkan, Metal, DX12).
-pub fn request_adapter(power: wgpu::PowerPreference) -> Result<wgpu::Adapter, GpuError> {
-    let instance =
-        wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+/// The adapter wgpu prefers for `options` (power preference and backends).
+pub fn request_adapter(options: &ContextOptions) -> Result<wgpu::Adapter, GpuError> {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    if let Some(backends) = options.backends {
+        desc.backends = backends;
+    }
+    let instance = wgpu::Instance::new(desc);
     pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-        power_preference: power,
+        power_preference: options.power_preference,
         force_fallback_adapter: false,
         compatible_surface: None,
         ..Default::default()
@@ -113,7 +119,7 @@ impl GpuContext {
     /// Limits can only be lowered: the adapter refuses more than it has.
     pub fn with_limits(shrink: impl FnOnce(&mut wgpu::Limits)) -> Result<GpuContext, GpuError> {
         let options = ContextOptions::default();
-        let adapter = request_adapter(options.power_preference)?;
+        let adapter = request_adapter(&options)?;
         let mut limits = adapter.limits();
         shrink(&mut limits);
         let options = ContextOptions {
@@ -125,7 +131,7 @@ impl GpuContext {
 
     /// A device chosen and configured by `options`.
     pub fn with_options(options: &ContextOptions) -> Result<GpuContext, GpuError> {
-        let adapter = request_adapter(options.power_preference)?;
+        let adapter = request_adapter(options)?;
         GpuContext::on_adapter(&adapter, options)
     }
 

@@ -103,10 +103,6 @@ impl Drop for Lease {
             return;
         };
         let mut idle = self.pool.lock().unwrap_or_else(PoisonError::into_inner);
-        if buffer.usage().contains(wgpu::BufferUsages::MAP_READ) && buffer.map_state() != wgpu::MapState::Unmapped {
-            // A read-back that failed half-way: not reusable.
-            return;
-        }
         idle.bytes += buffer.size();
         idle.buffers.push(buffer);
         while idle.bytes > idle.budget {

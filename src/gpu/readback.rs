@@ -20,11 +20,15 @@ pub(crate) fn read_buffer<T: bytemuck::Pod>(
     if size == 0 {
         return Ok(Vec::new());
     }
-    // Copies must be a multiple of 4 bytes; T is f32, f64 or u32 here, so they are.
-    let staging = ctx.buffer(
-        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+    // Copies must be a multiple of 4 bytes; T is f32, f64 or u32 here, so they are. The staging
+    // buffer is not pooled: after a failed map it could be left mapped.
+    let staging = ctx.device().create_buffer(&wgpu::BufferDescriptor {
+        label: Some("read back"),
         size,
-    )?;
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    ctx.check()?;
     let mut encoder = ctx
         .device()
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {

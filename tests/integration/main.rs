@@ -3,7 +3,9 @@ mod support;
 
 mod avar;
 mod cli;
+mod gpu;
 mod io;
 mod psd;
 mod readers_prop;
+mod schema;
 mod streaming;

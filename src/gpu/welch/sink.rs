@@ -1,0 +1,344 @@
+//! Streaming Welch on the GPU: the same contract as the CPU's `WelchAccumulator` (chunks of any
+//! size, memory bounded by the segment length), and the same result.
+//!
+//! Per channel the host keeps the samples after the start of the next incomplete segment (fewer than
+//! nperseg, in f64, exactly as the CPU accumulator does). Each push uploads `held ++ chunk` batch by
+//! batch (a batch re-uploads the overlap it shares with the previous one, so overlapping segments
+//! are exact) and queues the kernels; at the end of the push the device's running sums are read once
+//! and added, in f64, to the host's. That read is also the push's check that the device is healthy.
+//!
+//! Failure: if anything fails during a push (device lost, out of memory, a validation error), the
+//! push's partial GPU sums are discarded and a CPU `WelchAccumulator` takes over from the state
+//! before the push (the held samples plus the chunk), and keeps every later push. `finish` adds
+//! the CPU's sums to the GPU's from the pushes that completed, so the result is exactly what one
+//! path would have produced. Reading the sums once per push is what makes this possible without
+//! keeping past samples; it costs one synchronisation per push, which is small next to a push's
+//! worth of segments.
+
+use std::sync::Arc;
+
+use super::device::{Capacity, WelchDevice};
+use super::params::WelchParams;
+use super::{layout, WelchLayout};
+use crate::estimate::WelchSink;
+use crate::gpu::fallback::{FallbackLog, Task};
+use crate::gpu::{FallbackReason, GpuContext, GpuError};
+use crate::psd::{Detrend, Psd, PsdError, WelchAccumulator, WelchPlan};
+
+/// Batches between read-backs of the device sums within one push: bounds how many batch sums are
+/// added in f32 on the device before the f64 host sum takes over.
+const FLUSH_BATCHES: usize = 16;
+
+/// A Welch estimate in progress on the GPU, for all channels of one recording.
+pub struct GpuWelch {
+    plan: WelchPlan,
+    rate_hz: f64,
+    channels: usize,
+    engine: Engine,
+    /// Per channel: samples from the start of the next segment (GPU mode only).
+    held: Vec<Vec<f64>>,
+    received: usize,
+    /// Segments per channel whose sums are in `sums`.
+    gpu_segments: usize,
+    /// Per channel, per bin: Σ|X_k|² of the GPU segments, in f64.
+    sums: Vec<Vec<f64>>,
+    peak_buffered: usize,
+    error: Option<PsdError>,
+    log: Option<Arc<FallbackLog>>,
+    staging: Vec<f32>,
+}
+
+enum Engine {
+    Gpu(Box<WelchDevice>),
+    Cpu(Box<WelchAccumulator>),
+}
+
+impl GpuWelch {
+    /// A GPU Welch estimate of `channels` channels at `rate_hz`, or the reason the plan cannot run
+    /// on this device (see [`layout`](super::layout)) or the device failed to allocate.
+    ///
+    /// An invalid rate is reported by `finish`, as the CPU accumulator does.
+    pub fn new(
+        ctx: Arc<GpuContext>,
+        plan: WelchPlan,
+        rate_hz: f64,
+        channels: usize,
+    ) -> Result<GpuWelch, FallbackReason> {
+        let WelchLayout { algorithm, batch } = layout(&ctx, &plan, channels)?;
+        let split = match algorithm {
+            crate::gpu::fft::FftAlgorithm::FourStep { m1, .. } => m1,
+            crate::gpu::fft::FftAlgorithm::Local => 0,
+        };
+        let template = WelchParams::for_plan(&plan, split);
+        let window: Vec<f32> = plan.window().iter().map(|&w| w as f32).collect();
+        let cap = Capacity {
+            channels: channels.max(1),
+            segments: batch,
+            stride: (batch - 1) * plan.step() + plan.nperseg(),
+        };
+        let device = WelchDevice::new(ctx, template, &window, algorithm, cap)
+            .map_err(FallbackReason::Failed)?;
+        let error = (!(rate_hz.is_finite() && rate_hz > 0.0)).then(|| {
+            PsdError::InvalidConfig(format!(
+                "sample rate must be finite and positive, got {rate_hz}"
+            ))
+        });
+        Ok(GpuWelch {
+            held: (0..channels)
+                .map(|_| Vec::with_capacity(plan.nperseg()))
+                .collect(),
+            sums: vec![vec![0.0; plan.bins()]; channels],
+            plan,
+            rate_hz,
+            channels,
+            engine: Engine::Gpu(Box::new(device)),
+            received: 0,
+            gpu_segments: 0,
+            peak_buffered: 0,
+            error,
+            log: None,
+            staging: Vec::new(),
+        })
+    }
+
+    /// Records mid-stream fallbacks in `log` (the backend's).
+    pub fn with_log(mut self, log: Arc<FallbackLog>) -> GpuWelch {
+        self.log = Some(log);
+        self
+    }
+
+    /// Whether the estimate is still on the GPU (false after a mid-stream fallback).
+    pub fn on_gpu(&self) -> bool {
+        matches!(self.engine, Engine::Gpu(_))
+    }
+
+    /// Samples received per channel.
+    pub fn samples(&self) -> usize {
+        self.received
+    }
+
+    /// Feeds the next samples of every channel (one slice per channel, equal lengths); misuse is
+    /// reported by `finish`, as with the CPU accumulator.
+    pub fn push(&mut self, chunk: &[&[f64]]) {
+        if self.error.is_some() {
+            return;
+        }
+        if let Err(e) = self.check(chunk) {
+            self.error = Some(e);
+            return;
+        }
+        let len = chunk.first().map_or(0, |c| c.len());
+        if let Engine::Cpu(acc) = &mut self.engine {
+            acc.push(chunk);
+            self.received += len;
+            self.peak_buffered = self.peak_buffered.max(acc.peak_buffered_samples());
+            return;
+        }
+        if len == 0 {
+            return;
+        }
+        let held = self.held.first().map_or(0, Vec::len);
+        let nseg = self.plan.segments_for(held + len);
+        if nseg > 0 {
+            match self.process(chunk, nseg) {
+                Ok(sums) => {
+                    for (total, add) in self.sums.iter_mut().zip(sums.chunks(self.plan.bins())) {
+                        for (t, a) in total.iter_mut().zip(add) {
+                            *t += f64::from(*a);
+                        }
+                    }
+                    self.gpu_segments += nseg;
+                }
+                Err(e) => {
+                    self.fall_back(e, chunk);
+                    self.received += len;
+                    return;
+                }
+            }
+        }
+        self.received += len;
+        let consumed = nseg * self.plan.step();
+        for (h, x) in self.held.iter_mut().zip(chunk) {
+            if consumed >= h.len() {
+                let skip = consumed - h.len();
+                h.clear();
+                h.extend_from_slice(&x[skip..]);
+            } else {
+                h.drain(..consumed);
+                h.extend_from_slice(x);
+            }
+        }
+        self.peak_buffered = self
+            .peak_buffered
+            .max(self.held.first().map_or(0, Vec::len));
+    }
+
+    /// The same checks, in the same order, as the CPU accumulator.
+    fn check(&self, chunk: &[&[f64]]) -> Result<(), PsdError> {
+        if chunk.len() != self.channels {
+            return Err(PsdError::ChannelMismatch {
+                expected: self.channels,
+                got: chunk.len(),
+            });
+        }
+        let expected = chunk.first().map_or(0, |c| c.len());
+        match chunk.iter().position(|c| c.len() != expected) {
+            Some(channel) => Err(PsdError::LengthMismatch {
+                channel,
+                len: chunk[channel].len(),
+                expected,
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// Runs the `nseg` segments complete in `held ++ chunk` on the device and returns their
+    /// Σ|X_k|², channel-major: the device's f32 sums (each over at most FLUSH_BATCHES batches)
+    /// added in f64.
+    fn process(&mut self, chunk: &[&[f64]], nseg: usize) -> Result<Vec<f64>, GpuError> {
+        let Engine::Gpu(device) = &self.engine else {
+            unreachable!("only called on the GPU path")
+        };
+        let Capacity { segments: batch, .. } = device.capacity();
+        let (step, n) = (self.plan.step(), self.plan.nperseg());
+        let bins = self.plan.bins();
+        let subtract_mean = self.plan.config().detrend != Detrend::None;
+        let mut out = vec![0.0f64; self.channels * bins];
+        let mut refs = vec![0.0f32; self.channels];
+        let mut pending = 0;
+        let mut s0 = 0;
+        while s0 < nseg {
+            let count = batch.min(nseg - s0);
+            let start = s0 * step;
+            let stride = (count - 1) * step + n;
+            self.staging.clear();
+            for (c, (held, x)) in self.held.iter().zip(chunk).enumerate() {
+                let (a, b) = split_range(held, x, start, stride);
+                // The batch mean, in f64, as the reference: what is left fits f32 with the
+                // noise's own digits. Detrending removes it again; without detrending the
+                // kernel adds it back, so it is not used there.
+                let reference = if subtract_mean {
+                    (a.iter().sum::<f64>() + b.iter().sum::<f64>()) / stride as f64
+                } else {
+                    0.0
+                };
+                refs[c] = reference as f32;
+                self.staging
+                    .extend(a.iter().chain(b).map(|&v| (v - reference) as f32));
+            }
+            device.run_batch(&self.staging, &refs, count, stride, pending == 0)?;
+            pending += 1;
+            if pending == FLUSH_BATCHES {
+                add_into(&mut out, &device.read_sums()?);
+                pending = 0;
+            }
+            s0 += count;
+        }
+        if pending > 0 {
+            add_into(&mut out, &device.read_sums()?);
+        }
+        Ok(out)
+    }
+
+    /// Switches to the CPU after a failure during the push of `chunk`: the CPU accumulator starts
+    /// from the samples held before the push, then takes the chunk.
+    fn fall_back(&mut self, e: GpuError, chunk: &[&[f64]]) {
+        if let Some(log) = &self.log {
+            log.record(Task::Welch, FallbackReason::Failed(e));
+        }
+        let mut acc = WelchAccumulator::new(self.plan.clone(), self.rate_hz, self.channels);
+        let held: Vec<&[f64]> = self.held.iter().map(Vec::as_slice).collect();
+        acc.push(&held);
+        acc.push(chunk);
+        self.peak_buffered = self.peak_buffered.max(acc.peak_buffered_samples());
+        self.held = Vec::new();
+        self.engine = Engine::Cpu(Box::new(acc));
+    }
+
+    /// The PSD of every channel.
+    ///
+    /// Errors: `TooShort` when no segment was formed, and any misuse recorded by `new` or `push`.
+    pub fn finish(self) -> Result<Vec<Psd>, PsdError> {
+        if let Some(e) = self.error {
+            return Err(e);
+        }
+        if self.channels == 0 {
+            return Ok(Vec::new());
+        }
+        let plan = self.plan;
+        let gpu_m = self.gpu_segments;
+        let mut sums = self.sums;
+        let mut m = gpu_m;
+        if let Engine::Cpu(acc) = self.engine {
+            let cpu_m = acc.segments();
+            if gpu_m == 0 {
+                return acc.finish();
+            }
+            if cpu_m > 0 {
+                let cpu = acc.finish()?;
+                for (total, psd) in sums.iter_mut().zip(&cpu) {
+                    for (k, (t, v)) in total.iter_mut().zip(&psd.value).enumerate() {
+                        *t += raw_mean(&plan, self.rate_hz, k, *v) * cpu_m as f64;
+                    }
+                }
+                m += cpu_m;
+            }
+        }
+        if m == 0 {
+            return Err(PsdError::TooShort {
+                n: self.received,
+                nperseg: plan.nperseg(),
+            });
+        }
+        let dof = Psd::bin_dof(&plan, m);
+        Ok(sums
+            .into_iter()
+            .map(|s| {
+                let raw = s.iter().map(|v| v / m as f64).collect();
+                Psd::from_averaged(&plan, self.rate_hz, m, raw, dof.clone())
+            })
+            .collect())
+    }
+}
+
+/// The mean |X_k|² behind bin k of a finished PSD: its value without the scaling and the
+/// one-sided doubling (every bin but DC and, for even nfft, Nyquist).
+fn raw_mean(plan: &WelchPlan, rate_hz: f64, k: usize, value: f64) -> f64 {
+    let scale = plan
+        .config()
+        .scaling
+        .factor(rate_hz, plan.sum_w(), plan.sum_w2());
+    let bins = plan.bins();
+    let doubled_end = if plan.nfft() % 2 == 0 { bins - 1 } else { bins };
+    let fold = if k >= 1 && k < doubled_end { 2.0 } else { 1.0 };
+    value / (scale * fold)
+}
+
+fn add_into(out: &mut [f64], sums: &[f32]) {
+    for (o, s) in out.iter_mut().zip(sums) {
+        *o += f64::from(*s);
+    }
+}
+
+/// Samples [start, start + len) of `held ++ chunk`, as (part in `held`, part in `chunk`).
+fn split_range<'a>(held: &'a [f64], chunk: &'a [f64], start: usize, len: usize) -> (&'a [f64], &'a [f64]) {
+    if start >= held.len() {
+        let s = start - held.len();
+        (&[], &chunk[s..s + len])
+    } else {
+        let in_held = (held.len() - start).min(len);
+        (&held[start..start + in_held], &chunk[..len - in_held])
+    }
+}
+
+impl WelchSink for GpuWelch {
+    fn push(&mut self, chunk: &[&[f64]]) {
+        GpuWelch::push(self, chunk)
+    }
+    fn finish(self: Box<Self>) -> Result<Vec<Psd>, PsdError> {
+        GpuWelch::finish(*self)
+    }
+    fn peak_buffered_samples(&self) -> usize {
+        self.peak_buffered
+    }
+}
