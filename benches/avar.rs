@@ -56,7 +56,11 @@ fn run(c: &mut Criterion, group_name: &str, sizes: &[usize], samples: usize) {
         group.throughput(Throughput::Elements(n as u64));
         let cases = [
             ("oadev_octave", Statistic::Oadev, TauGrid::Octave),
-            ("oadev_log100", Statistic::Oadev, TauGrid::Explicit(log_factors(n, 100))),
+            (
+                "oadev_log100",
+                Statistic::Oadev,
+                TauGrid::Explicit(log_factors(n, 100)),
+            ),
             ("adev_octave", Statistic::Adev, TauGrid::Octave),
             ("mdev_octave", Statistic::Mdev, TauGrid::Octave),
             ("hdev_octave", Statistic::Hdev, TauGrid::Octave),

@@ -135,3 +135,36 @@ fn estimate(
         confidence: p,
     })
 }
+
+#[cfg(test)]
+mod scratch_timing {
+    use super::*;
+    use std::time::Instant;
+
+    #[test]
+    #[ignore]
+    fn phases() {
+        for &n in &[1_000_000usize, 10_000_000] {
+            let mut s = 1u64;
+            let mut walk = 0.0;
+            let y: Vec<f64> = (0..n).map(|_| { s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407); let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5; walk += 1e-3 * u; u + walk }).collect();
+            for _ in 0..3 {
+                let t = Instant::now();
+                let ps = PrefixSums::new(&y).unwrap();
+                let t_prefix = t.elapsed();
+                let ms = TauGrid::Octave.factors(n, Statistic::Oadev);
+                let t = Instant::now();
+                let var = variances(&ps, &ms, Statistic::Oadev);
+                let t_var = t.elapsed();
+                let t = Instant::now();
+                let alphas: Vec<i8> = ms.par_iter().map(|&m| identify(&ps, m, Statistic::Oadev).alpha).collect();
+                let t_id = t.elapsed();
+                let t = Instant::now();
+                let b: Vec<(f64, f64)> = ms.iter().zip(&alphas).zip(&var).map(|((&m, &a), &v)| { let e = edf(Statistic::Oadev, a, m, n); variance_bounds(v, e, 0.68) }).collect();
+                let t_edf = t.elapsed();
+                eprintln!("n={n}: prefix {t_prefix:?} variances {t_var:?} noise-id {t_id:?} edf+bounds {t_edf:?} {:?}", &alphas);
+                std::hint::black_box(b);
+            }
+        }
+    }
+}

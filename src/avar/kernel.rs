@@ -1,137 +1,228 @@
-//! Inner loops: sums of squared second and third differences of S over contiguous ranges.
+//! Inner loops: sums of squared second and third differences of S over contiguous ranges of start
+//! indices, the only place where the time of the overlapping estimators goes.
 //!
-//! These two loops are where the time goes, so they are written for the vectoriser: 16 independent
-//! accumulators (four AVX2 registers, enough to hide the add latency) over `chunks_exact`, which
-//! lets the compiler drop bounds checks. On x86-64 the same source is also compiled with AVX2
-//! enabled and chosen at run time; both versions perform the same operations in the same order, so
-//! their results are bit-identical and the output does not depend on the CPU.
+//! - Second differences are computed for a *chain* of up to four taus m, 2m, 4m, 8m at once
+//!   (octave grids are made of such chains): S_j, S_{j+m}, S_{j+2m}, S_{j+4m}, … are each loaded
+//!   once and serve two taus, which halves the memory traffic of long taus; a lone τ is a chain of
+//!   one.
+//! - Each τ accumulates in 8 lanes (two 256-bit registers): lane l takes the terms with
+//!   j − j₀ ≡ l (mod 8); the lanes are added in order 0..8 and the scalar tail last. The AVX2
+//!   version (x86-64, chosen at run time) and the portable one perform exactly these IEEE
+//!   operations in this order, so results are bit-identical on every CPU, and a τ gives the same
+//!   bits whether it is computed alone or in a chain.
+//! - The differences are formed as (S₂ − S₁) − (S₁ − S₀): neighbouring values of S are close, so
+//!   each inner difference is exact (Sterbenz) and the only rounding is that of the small result,
+//!   whereas S₂ − 2S₁ + S₀ would round at the magnitude of S.
 //!
-//! The differences are formed as (S₂ − S₁) − (S₁ − S₀): neighbouring values of S are close, so each
-//! inner difference is exact (Sterbenz) and the only rounding is that of the small final result,
-//! whereas S₂ − 2S₁ + S₀ would round at the magnitude of S.
+//! LLVM's auto-vectoriser handles the one-τ loop but not the chain (it falls back to shuffles and
+//! 128-bit operations), hence the explicit intrinsics.
 
-const LANES: usize = 16;
+/// Accumulator lanes per τ.
+const LANES: usize = 8;
+/// Longest chain of taus evaluated together.
+pub(crate) const MAX_CHAIN: usize = 4;
 
-macro_rules! second_diff_body {
-    ($s0:expr, $s1:expr, $s2:expr) => {{
-        let (s0, s1, s2): (&[f64], &[f64], &[f64]) = ($s0, $s1, $s2);
-        let len = s0.len();
-        let (s1, s2) = (&s1[..len], &s2[..len]);
-        let mut acc = [0.0f64; LANES];
-        for ((a, b), c) in s0
-            .chunks_exact(LANES)
-            .zip(s1.chunks_exact(LANES))
-            .zip(s2.chunks_exact(LANES))
-        {
-            for l in 0..LANES {
-                let v = (c[l] - b[l]) - (b[l] - a[l]);
-                acc[l] += v * v;
-            }
-        }
-        let done = len - len % LANES;
-        let mut tail = 0.0f64;
-        for k in done..len {
-            let v = (s2[k] - s1[k]) - (s1[k] - s0[k]);
-            tail += v * v;
-        }
-        reduce(&acc) + tail
-    }};
+/// Σ v² for a chain of taus over `len` start indices, where `streams[0]` is S from the first start
+/// index j₀ and `streams[c]` is S from j₀ + 2^(c−1)·m, so τ number c (= 2^c·m) has
+/// v = (streams[c+2] − streams[c+1]) − (streams[c+1] − streams[0]). Returns one sum per τ in
+/// `out[..streams.len() − 2]`.
+///
+/// # Panics
+/// If `streams` has fewer than 3 or more than `MAX_CHAIN + 2` entries, or one is shorter than
+/// `len`.
+pub(crate) fn chain_second(len: usize, streams: &[&[f64]], out: &mut [f64]) {
+    let taus = streams.len().wrapping_sub(2);
+    assert!((1..=MAX_CHAIN).contains(&taus), "chain of {taus} taus");
+    assert!(streams.iter().all(|s| s.len() >= len) && out.len() >= taus);
+    match taus {
+        1 => out[..1].copy_from_slice(&dispatch_second::<1>(len, streams)),
+        2 => out[..2].copy_from_slice(&dispatch_second::<2>(len, streams)),
+        3 => out[..3].copy_from_slice(&dispatch_second::<3>(len, streams)),
+        _ => out[..4].copy_from_slice(&dispatch_second::<4>(len, streams)),
+    }
 }
 
-macro_rules! third_diff_body {
-    ($s0:expr, $s1:expr, $s2:expr, $s3:expr) => {{
-        let (s0, s1, s2, s3): (&[f64], &[f64], &[f64], &[f64]) = ($s0, $s1, $s2, $s3);
-        let len = s0.len();
-        let (s1, s2, s3) = (&s1[..len], &s2[..len], &s3[..len]);
-        let mut acc = [0.0f64; LANES];
-        for (((a, b), c), d) in s0
-            .chunks_exact(LANES)
-            .zip(s1.chunks_exact(LANES))
-            .zip(s2.chunks_exact(LANES))
-            .zip(s3.chunks_exact(LANES))
-        {
-            for l in 0..LANES {
-                let (f0, f1, f2) = (b[l] - a[l], c[l] - b[l], d[l] - c[l]);
-                let v = (f2 - f1) - (f1 - f0);
-                acc[l] += v * v;
-            }
-        }
-        let done = len - len % LANES;
-        let mut tail = 0.0f64;
-        for k in done..len {
-            let (f0, f1, f2) = (s1[k] - s0[k], s2[k] - s1[k], s3[k] - s2[k]);
-            let v = (f2 - f1) - (f1 - f0);
-            tail += v * v;
-        }
-        reduce(&acc) + tail
-    }};
+/// Σ v² of third differences v = (f₂ − f₁) − (f₁ − f₀), f_k = S_{j+(k+1)m} − S_{j+km}, over
+/// `len` start indices; `streams` = S from j₀, j₀ + m, j₀ + 2m, j₀ + 3m.
+///
+/// # Panics
+/// If `streams` does not have 4 entries of at least `len` values.
+pub(crate) fn third(len: usize, streams: &[&[f64]]) -> f64 {
+    assert!(streams.len() == 4 && streams.iter().all(|s| s.len() >= len));
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: AVX2 is available (checked above) and every stream holds at least `len` values
+        // (asserted above), which is all the function reads.
+        return unsafe { avx2::third(len, streams) };
+    }
+    third_portable(len, streams)
 }
 
-/// Pairwise reduction of the lanes, in a fixed order.
+fn dispatch_second<const T: usize>(len: usize, streams: &[&[f64]]) -> [f64; T] {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: AVX2 is available (checked above); `chain_second` asserted that there are
+        // T + 2 streams of at least `len` values, which is all the function reads.
+        return unsafe { avx2::second::<T>(len, streams) };
+    }
+    second_portable::<T>(len, streams)
+}
+
+/// Lane sums added in lane order, then the tail.
+fn finish(lanes: &[f64; LANES], tail: f64) -> f64 {
+    lanes.iter().sum::<f64>() + tail
+}
+
+fn second_portable<const T: usize>(len: usize, streams: &[&[f64]]) -> [f64; T] {
+    let mut acc = [[0.0f64; LANES]; T];
+    let full = len - len % LANES;
+    for i in (0..full).step_by(LANES) {
+        let base = &streams[0][i..i + LANES];
+        for (c, lanes) in acc.iter_mut().enumerate() {
+            let near = &streams[c + 1][i..i + LANES];
+            let far = &streams[c + 2][i..i + LANES];
+            for l in 0..LANES {
+                let v = (far[l] - near[l]) - (near[l] - base[l]);
+                lanes[l] += v * v;
+            }
+        }
+    }
+    let mut out = [0.0f64; T];
+    for (c, slot) in out.iter_mut().enumerate() {
+        *slot = finish(&acc[c], tail_second(full, len, streams, c));
+    }
+    out
+}
+
+fn tail_second(from: usize, len: usize, streams: &[&[f64]], c: usize) -> f64 {
+    let mut tail = 0.0f64;
+    for k in from..len {
+        let (b, n, f) = (streams[0][k], streams[c + 1][k], streams[c + 2][k]);
+        let v = (f - n) - (n - b);
+        tail += v * v;
+    }
+    tail
+}
+
+fn third_portable(len: usize, streams: &[&[f64]]) -> f64 {
+    let mut acc = [0.0f64; LANES];
+    let full = len - len % LANES;
+    for i in (0..full).step_by(LANES) {
+        for (l, lane) in acc.iter_mut().enumerate() {
+            let v = third_term(streams, i + l);
+            *lane += v * v;
+        }
+    }
+    finish(&acc, tail_third(full, len, streams))
+}
+
 #[inline(always)]
-fn reduce(acc: &[f64; LANES]) -> f64 {
-    let mut v = *acc;
-    let mut width = LANES;
-    while width > 1 {
-        width /= 2;
-        for l in 0..width {
-            v[l] += v[l + width];
+fn third_term(streams: &[&[f64]], k: usize) -> f64 {
+    let (s0, s1, s2, s3) = (streams[0][k], streams[1][k], streams[2][k], streams[3][k]);
+    let (f0, f1, f2) = (s1 - s0, s2 - s1, s3 - s2);
+    (f2 - f1) - (f1 - f0)
+}
+
+fn tail_third(from: usize, len: usize, streams: &[&[f64]]) -> f64 {
+    let mut tail = 0.0f64;
+    for k in from..len {
+        let v = third_term(streams, k);
+        tail += v * v;
+    }
+    tail
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    //! The same arithmetic as the portable loops, four lanes per 256-bit register, two registers
+    //! per τ (lanes 0–3 and 4–7).
+
+    use core::arch::x86_64::{
+        __m256d, _mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_setzero_pd,
+        _mm256_storeu_pd, _mm256_sub_pd,
+    };
+
+    use super::{finish, tail_second, tail_third, LANES, MAX_CHAIN};
+
+    /// # Safety
+    /// The CPU must support AVX2; `streams` must hold T + 2 slices of at least `len` values.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn second<const T: usize>(len: usize, streams: &[&[f64]]) -> [f64; T] {
+        let mut ptr = [std::ptr::null::<f64>(); MAX_CHAIN + 2];
+        for (p, s) in ptr.iter_mut().zip(streams) {
+            *p = s.as_ptr();
         }
+        let mut lo = [_mm256_setzero_pd(); T];
+        let mut hi = [_mm256_setzero_pd(); T];
+        let full = len - len % LANES;
+        let mut i = 0;
+        while i < full {
+            // SAFETY (all loads): i + 8 ≤ full ≤ len and every stream holds ≥ len values.
+            let b0 = _mm256_loadu_pd(ptr[0].add(i));
+            let b1 = _mm256_loadu_pd(ptr[0].add(i + 4));
+            let mut n0 = _mm256_loadu_pd(ptr[1].add(i));
+            let mut n1 = _mm256_loadu_pd(ptr[1].add(i + 4));
+            for c in 0..T {
+                let f0 = _mm256_loadu_pd(ptr[c + 2].add(i));
+                let f1 = _mm256_loadu_pd(ptr[c + 2].add(i + 4));
+                let v0 = _mm256_sub_pd(_mm256_sub_pd(f0, n0), _mm256_sub_pd(n0, b0));
+                let v1 = _mm256_sub_pd(_mm256_sub_pd(f1, n1), _mm256_sub_pd(n1, b1));
+                lo[c] = _mm256_add_pd(lo[c], _mm256_mul_pd(v0, v0));
+                hi[c] = _mm256_add_pd(hi[c], _mm256_mul_pd(v1, v1));
+                n0 = f0;
+                n1 = f1;
+            }
+            i += LANES;
+        }
+        let mut out = [0.0f64; T];
+        for (c, slot) in out.iter_mut().enumerate() {
+            *slot = finish(&lanes(lo[c], hi[c]), tail_second(full, len, streams, c));
+        }
+        out
     }
-    v[0]
-}
 
-fn second_portable(s0: &[f64], s1: &[f64], s2: &[f64]) -> f64 {
-    second_diff_body!(s0, s1, s2)
-}
-
-fn third_portable(s0: &[f64], s1: &[f64], s2: &[f64], s3: &[f64]) -> f64 {
-    third_diff_body!(s0, s1, s2, s3)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn second_avx2(s0: &[f64], s1: &[f64], s2: &[f64]) -> f64 {
-    second_diff_body!(s0, s1, s2)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn third_avx2(s0: &[f64], s1: &[f64], s2: &[f64], s3: &[f64]) -> f64 {
-    third_diff_body!(s0, s1, s2, s3)
-}
-
-#[cfg(target_arch = "x86_64")]
-fn has_avx2() -> bool {
-    std::arch::is_x86_feature_detected!("avx2")
-}
-
-/// Σ_k ((s2[k] − s1[k]) − (s1[k] − s0[k]))² over k < s0.len().
-///
-/// # Panics
-/// If `s1` or `s2` is shorter than `s0`.
-pub(crate) fn sum_sq_second(s0: &[f64], s1: &[f64], s2: &[f64]) -> f64 {
-    assert!(s1.len() >= s0.len() && s2.len() >= s0.len());
-    #[cfg(target_arch = "x86_64")]
-    if has_avx2() {
-        // SAFETY: the CPU supports AVX2 (checked above); the function is otherwise safe Rust.
-        return unsafe { second_avx2(s0, s1, s2) };
+    /// # Safety
+    /// The CPU must support AVX2; `streams` must hold 4 slices of at least `len` values.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn third(len: usize, streams: &[&[f64]]) -> f64 {
+        let p = [
+            streams[0].as_ptr(),
+            streams[1].as_ptr(),
+            streams[2].as_ptr(),
+            streams[3].as_ptr(),
+        ];
+        let mut lo = _mm256_setzero_pd();
+        let mut hi = _mm256_setzero_pd();
+        let full = len - len % LANES;
+        let mut i = 0;
+        while i < full {
+            for (half, acc) in [(0usize, &mut lo), (4, &mut hi)] {
+                // SAFETY: i + half + 4 ≤ full ≤ len, every stream holds ≥ len values.
+                let s0 = _mm256_loadu_pd(p[0].add(i + half));
+                let s1 = _mm256_loadu_pd(p[1].add(i + half));
+                let s2 = _mm256_loadu_pd(p[2].add(i + half));
+                let s3 = _mm256_loadu_pd(p[3].add(i + half));
+                let (f0, f1, f2) = (
+                    _mm256_sub_pd(s1, s0),
+                    _mm256_sub_pd(s2, s1),
+                    _mm256_sub_pd(s3, s2),
+                );
+                let v = _mm256_sub_pd(_mm256_sub_pd(f2, f1), _mm256_sub_pd(f1, f0));
+                *acc = _mm256_add_pd(*acc, _mm256_mul_pd(v, v));
+            }
+            i += LANES;
+        }
+        finish(&lanes(lo, hi), tail_third(full, len, streams))
     }
-    second_portable(s0, s1, s2)
-}
 
-/// Σ_k (third difference of s0[k], s1[k], s2[k], s3[k])² over k < s0.len().
-///
-/// # Panics
-/// If `s1`, `s2` or `s3` is shorter than `s0`.
-pub(crate) fn sum_sq_third(s0: &[f64], s1: &[f64], s2: &[f64], s3: &[f64]) -> f64 {
-    assert!(s1.len() >= s0.len() && s2.len() >= s0.len() && s3.len() >= s0.len());
-    #[cfg(target_arch = "x86_64")]
-    if has_avx2() {
-        // SAFETY: the CPU supports AVX2 (checked above); the function is otherwise safe Rust.
-        return unsafe { third_avx2(s0, s1, s2, s3) };
+    #[target_feature(enable = "avx2")]
+    unsafe fn lanes(lo: __m256d, hi: __m256d) -> [f64; LANES] {
+        let mut out = [0.0f64; LANES];
+        // SAFETY: `out` has room for 8 values.
+        _mm256_storeu_pd(out.as_mut_ptr(), lo);
+        _mm256_storeu_pd(out.as_mut_ptr().add(4), hi);
+        out
     }
-    third_portable(s0, s1, s2, s3)
 }
 
 #[cfg(test)]
@@ -145,34 +236,55 @@ mod tests {
     }
 
     #[test]
-    fn matches_plain_loops() {
-        let s = data(1000);
-        for len in [0, 1, 15, 16, 17, 100, 333] {
-            let (a, b, c, d) = (&s[..len], &s[7..], &s[14..], &s[21..]);
-            let want2: f64 = (0..len).map(|k| (c[k] - 2.0 * b[k] + a[k]).powi(2)).sum();
+    fn chains_match_plain_loops() {
+        let s = data(3000);
+        let m = 7;
+        for len in [0, 1, 7, 8, 9, 100, 333] {
+            let streams: Vec<&[f64]> = [0, m, 2 * m, 4 * m, 8 * m, 16 * m]
+                .iter()
+                .map(|&o| &s[o..])
+                .collect();
+            for taus in 1..=MAX_CHAIN {
+                let mut out = [0.0; MAX_CHAIN];
+                chain_second(len, &streams[..taus + 2], &mut out);
+                for (c, got) in out[..taus].iter().enumerate() {
+                    let t = m << c;
+                    let want: f64 = (0..len)
+                        .map(|k| (s[k + 2 * t] - 2.0 * s[k + t] + s[k]).powi(2))
+                        .sum();
+                    assert!((got - want).abs() <= 1e-12 * want.max(1.0), "{len} {c}");
+                }
+            }
             let want3: f64 = (0..len)
-                .map(|k| (d[k] - 3.0 * c[k] + 3.0 * b[k] - a[k]).powi(2))
+                .map(|k| (s[k + 3 * m] - 3.0 * s[k + 2 * m] + 3.0 * s[k + m] - s[k]).powi(2))
                 .sum();
-            let got2 = sum_sq_second(a, b, c);
-            let got3 = sum_sq_third(a, b, c, d);
-            assert!((got2 - want2).abs() <= 1e-12 * want2.max(1.0), "{len}");
-            assert!((got3 - want3).abs() <= 1e-12 * want3.max(1.0), "{len}");
+            let t3 = third(len, &[&s[..], &s[m..], &s[2 * m..], &s[3 * m..]]);
+            assert!((t3 - want3).abs() <= 1e-12 * want3.max(1.0), "{len}");
         }
     }
 
     #[test]
-    fn dispatch_is_bit_identical_to_portable() {
-        let s = data(5000);
+    fn dispatch_and_chaining_are_bit_identical() {
+        let s = data(20_000);
+        let m = 5;
+        let streams: Vec<&[f64]> = [0, m, 2 * m, 4 * m, 8 * m, 16 * m]
+            .iter()
+            .map(|&o| &s[o..])
+            .collect();
         for len in [3, 64, 999, 4000] {
-            let (a, b, c, d) = (&s[..len], &s[5..], &s[300..], &s[900..]);
-            assert_eq!(
-                sum_sq_second(a, b, c).to_bits(),
-                second_portable(a, b, c).to_bits()
-            );
-            assert_eq!(
-                sum_sq_third(a, b, c, d).to_bits(),
-                third_portable(a, b, c, d).to_bits()
-            );
+            let mut chained = [0.0; MAX_CHAIN];
+            chain_second(len, &streams, &mut chained);
+            let portable = second_portable::<4>(len, &streams);
+            for c in 0..MAX_CHAIN {
+                assert_eq!(chained[c].to_bits(), portable[c].to_bits());
+                // The same τ alone: streams S_j, S_{j+t}, S_{j+2t}.
+                let alone = [streams[0], streams[c + 1], streams[c + 2]];
+                let mut one = [0.0; 1];
+                chain_second(len, &alone, &mut one);
+                assert_eq!(one[0].to_bits(), chained[c].to_bits());
+            }
+            let st3 = [&s[..], &s[m..], &s[2 * m..], &s[3 * m..]];
+            assert_eq!(third(len, &st3).to_bits(), third_portable(len, &st3).to_bits());
         }
     }
 }

@@ -17,6 +17,12 @@
 //!
 //! Both passes run on all cores. The boundary grid is fixed (it does not depend on the number of
 //! threads), so S is bit-for-bit the same on any machine with IEEE f64.
+//!
+//! The fill also records coarse cumulative sums of S (every 256 values), which give any window sum
+//! of S in O(1): the modified Allan variance at a few sampled start indices needs them (noise
+//! identification).
+
+use std::sync::Mutex;
 
 use rayon::prelude::*;
 
@@ -27,12 +33,58 @@ const ANCHOR: usize = 4096;
 /// Anchored blocks filled together by one task: four independent running sums interleave, so the
 /// fill is not bound by the latency of one long chain of additions.
 const LANES: usize = 4;
+/// Samples between the sub-anchors of T (the cumulative sum of S), used for window sums of S.
+const SUB: usize = 256;
+/// Sub-anchors per anchored block.
+const SUBS: usize = ANCHOR / SUB;
+/// Buffers of at least this many values are kept for reuse when dropped.
+const POOLED_MIN: usize = 1 << 20;
 
-/// S_j = Σ_{k<j} (y_k − ȳ) for j = 0..=N, with the mean ȳ that was removed.
+/// One spare S buffer, kept between calls: a fresh 80 MB allocation costs about as much in page
+/// faults (~25 ms) as the whole OADEV sweep of ten million samples, and a batch run computes many
+/// channels of the same length one after another. At most one buffer (the largest recently
+/// dropped) is kept; [`release_cached_memory`] frees it.
+static SPARE: Mutex<Vec<f64>> = Mutex::new(Vec::new());
+
+/// Frees the S buffer kept for reuse between calls (see [`PrefixSums`]); the next call
+/// allocates afresh.
+pub fn release_cached_memory() {
+    let spare = std::mem::take(&mut *SPARE.lock().unwrap_or_else(|e| e.into_inner()));
+    drop(spare);
+}
+
+/// A buffer of `len` values with unspecified contents: the spare if it is large enough, else a
+/// fresh zeroed one (`vec!` of zeros maps fresh pages, so their first touch, and its page faults,
+/// happens in the parallel fill).
+fn take_buffer(len: usize) -> Vec<f64> {
+    let mut spare = std::mem::take(&mut *SPARE.lock().unwrap_or_else(|e| e.into_inner()));
+    if spare.capacity() >= len {
+        if spare.len() >= len {
+            spare.truncate(len);
+        } else {
+            spare.resize(len, 0.0);
+        }
+        spare
+    } else {
+        drop(spare);
+        vec![0.0f64; len]
+    }
+}
+
+/// S_j = Σ_{k<j} (y_k − ȳ) for j = 0..=N, with the mean ȳ that was removed, and coarse cumulative
+/// sums of S itself (for window sums of S).
+///
+/// The S buffer of a large recording is recycled when this is dropped (see
+/// [`release_cached_memory`]).
 #[derive(Debug, Clone)]
 pub struct PrefixSums {
     s: Vec<f64>,
     mean: f64,
+    /// T at the start of each anchored block of S (T_j = Σ_{i<j} S_i), double-double; one more
+    /// entry than there are blocks (the total).
+    block_t: Vec<(f64, f64)>,
+    /// Σ of S from the start of its block to each sub-anchor (every 256 values), per block.
+    sub_t: Vec<f64>,
 }
 
 impl PrefixSums {
@@ -44,6 +96,8 @@ impl PrefixSums {
             return Ok(PrefixSums {
                 s: vec![0.0],
                 mean: 0.0,
+                block_t: vec![(0.0, 0.0), (0.0, 0.0)],
+                sub_t: vec![0.0; SUBS],
             });
         }
         // Pass 1: exact sum of every anchored block (also detects NaN/Inf: they poison the sum).
@@ -75,15 +129,33 @@ impl PrefixSums {
                 dh + (dl + (yl - pe))
             })
             .collect();
-        // Pass 2: fill S between anchors. `vec!` of zeros maps fresh pages, so the first touch
-        // (and its page faults) happens in parallel here.
-        let mut s = vec![0.0f64; n + 1];
+        // Pass 2: fill S between anchors, and the sums of S towards each sub-anchor.
+        let mut s = take_buffer(n + 1);
+        s[0] = 0.0;
+        let mut sub_t = vec![0.0f64; bases.len() * SUBS];
+        let mut totals = vec![0.0f64; bases.len()];
         s[1..]
             .par_chunks_mut(ANCHOR * LANES)
             .zip(y.par_chunks(ANCHOR * LANES))
             .zip(bases.par_chunks(LANES))
-            .for_each(|((out, ys), bs)| fill_group(out, ys, bs, mean));
-        Ok(PrefixSums { s, mean })
+            .zip(sub_t.par_chunks_mut(SUBS * LANES))
+            .zip(totals.par_chunks_mut(LANES))
+            .for_each(|((((out, ys), bs), subs), tot)| fill_group(out, ys, bs, mean, subs, tot));
+        let mut block_t = Vec::with_capacity(totals.len() + 1);
+        let (mut th, mut tl) = (0.0f64, 0.0f64);
+        block_t.push((th, tl));
+        for &t in &totals {
+            let (sum, err) = two_sum(th, t);
+            th = sum;
+            tl += err;
+            block_t.push((th, tl));
+        }
+        Ok(PrefixSums {
+            s,
+            mean,
+            block_t,
+            sub_t,
+        })
     }
 
     /// S_0..=S_N (length N + 1).
@@ -104,6 +176,39 @@ impl PrefixSums {
     /// The mean that was removed.
     pub fn mean(&self) -> f64 {
         self.mean
+    }
+
+    /// T_p = Σ_{i<p} S_i for p ≤ N + 1, as double-double (hi, lo), from the stored anchors plus at
+    /// most 255 values of S: O(1) in N.
+    pub fn cumulative_s(&self, p: usize) -> (f64, f64) {
+        let b = p / ANCHOR;
+        let (base, start) = if b + 1 >= self.block_t.len() {
+            let b = self.block_t.len() - 1;
+            (self.block_t[b], b * ANCHOR)
+        } else {
+            // Sub-anchors exist up to the end of the samples the block covers.
+            let covered = (self.len() - b * ANCHOR).min(ANCHOR);
+            let sub = ((p % ANCHOR) / SUB).min(covered / SUB).min(SUBS - 1);
+            let (h, l) = self.block_t[b];
+            let (h, e) = two_sum(h, self.sub_t[b * SUBS + sub]);
+            ((h, l + e), b * ANCHOR + sub * SUB)
+        };
+        let rest: f64 = self.s[start..p].iter().sum();
+        let (h, e) = two_sum(base.0, rest);
+        (h, base.1 + e)
+    }
+}
+
+impl Drop for PrefixSums {
+    fn drop(&mut self) {
+        let buf = std::mem::take(&mut self.s);
+        if buf.capacity() < POOLED_MIN {
+            return;
+        }
+        let mut spare = SPARE.lock().unwrap_or_else(|e| e.into_inner());
+        if buf.capacity() > spare.capacity() {
+            *spare = buf;
+        }
     }
 }
 
@@ -143,8 +248,16 @@ fn dd_sum(x: &[f64]) -> (f64, f64) {
 }
 
 /// Fills S_{j+1} for the samples of up to `LANES` consecutive anchored blocks, starting each block
-/// from its anchor value.
-fn fill_group(out: &mut [f64], y: &[f64], bases: &[f64], mean: f64) {
+/// from its anchor value S_{j₀}, and records, per block, Σ S_i from the block start j₀ to each
+/// sub-anchor j₀ + k·256 (`subs`) and over the whole block (`totals`).
+fn fill_group(
+    out: &mut [f64],
+    y: &[f64],
+    bases: &[f64],
+    mean: f64,
+    subs: &mut [f64],
+    totals: &mut [f64],
+) {
     if bases.len() == LANES && y.len() == LANES * ANCHOR {
         let (y0, rest) = y.split_at(ANCHOR);
         let (y1, rest) = rest.split_at(ANCHOR);
@@ -153,7 +266,16 @@ fn fill_group(out: &mut [f64], y: &[f64], bases: &[f64], mean: f64) {
         let (o1, rest) = rest.split_at_mut(ANCHOR);
         let (o2, o3) = rest.split_at_mut(ANCHOR);
         let mut a = [bases[0], bases[1], bases[2], bases[3]];
+        let mut t = [0.0f64; LANES];
         for k in 0..ANCHOR {
+            if k % SUB == 0 {
+                for l in 0..LANES {
+                    subs[l * SUBS + k / SUB] = t[l];
+                }
+            }
+            for l in 0..LANES {
+                t[l] += a[l];
+            }
             a[0] += y0[k] - mean;
             a[1] += y1[k] - mean;
             a[2] += y2[k] - mean;
@@ -163,17 +285,30 @@ fn fill_group(out: &mut [f64], y: &[f64], bases: &[f64], mean: f64) {
             o2[k] = a[2];
             o3[k] = a[3];
         }
+        totals.copy_from_slice(&t);
     } else {
-        for ((o, ys), &base) in out
+        for (l, ((o, ys), &base)) in out
             .chunks_mut(ANCHOR)
             .zip(y.chunks(ANCHOR))
             .zip(bases.iter())
+            .enumerate()
         {
             let mut a = base;
-            for (dst, &v) in o.iter_mut().zip(ys) {
+            let mut t = 0.0f64;
+            for (k, (dst, &v)) in o.iter_mut().zip(ys).enumerate() {
+                if k % SUB == 0 {
+                    subs[l * SUBS + k / SUB] = t;
+                }
+                t += a;
                 a += v - mean;
                 *dst = a;
             }
+            // A partial last block ending on a sub-anchor: that anchor is still inside S.
+            let k = o.len();
+            if k % SUB == 0 && k / SUB < SUBS {
+                subs[l * SUBS + k / SUB] = t;
+            }
+            totals[l] = t;
         }
     }
 }
@@ -203,6 +338,22 @@ mod tests {
             assert_eq!(ps.s()[j], acc as f64 / 1024.0, "j = {j}");
             if j < n {
                 acc += ints[j];
+            }
+        }
+    }
+
+    #[test]
+    fn cumulative_sums_of_s() {
+        for n in [1usize, 255, 4096, 4097, 3 * ANCHOR * LANES + 123, 4 * ANCHOR * LANES] {
+            let y: Vec<f64> = (0..n).map(|i| ((i * 7919 % 2003) as f64 - 1001.0) / 64.0).collect();
+            let ps = PrefixSums::new(&y).unwrap();
+            let mut t = 0.0f64;
+            for p in 0..=n + 1 {
+                let (h, l) = ps.cumulative_s(p);
+                assert!((h + l - t).abs() <= 1e-9 * (1.0 + t.abs()), "n={n} p={p}");
+                if p <= n {
+                    t += ps.s()[p];
+                }
             }
         }
     }

@@ -6,8 +6,9 @@
 //!
 //! - j runs in blocks of up to 32768; for each block every τ is evaluated while the block is hot.
 //!   For small m, S_{j+m} and S_{j+2m} fall in the same few hundred kilobytes as S_j and come from
-//!   L1/L2; for large m they come from their own windows, and octave taus share them (S_{j+2m} for
-//!   m is S_{j+m'} for m' = 2m).
+//!   L1/L2; for large m they come from their own windows.
+//! - Octave taus are evaluated in chains (m, 2m, 4m, 8m) by one kernel that loads each window once
+//!   (S_{j+2m} for m is S_{j+m'} for m' = 2m), see [`kernel`](super::kernel).
 //! - Both cores work on neighbouring blocks (a round of eight at a time), so the windows one core
 //!   pulls into the shared L3 are still there when the other needs them.
 //! - Each block's partial sums are stored, then added in block order: the result does not depend
@@ -15,7 +16,7 @@
 
 use rayon::prelude::*;
 
-use super::kernel::{sum_sq_second, sum_sq_third};
+use super::kernel::{chain_second, third, MAX_CHAIN};
 
 /// Taus evaluated per sweep (bounds the partial-sum table at blocks × taus).
 const TAU_GROUP: usize = 256;
@@ -47,8 +48,27 @@ fn block_len(n: usize) -> usize {
     (n / 16).next_power_of_two().clamp(1024, 32768)
 }
 
-/// For each m in `ms`: Σ_{j=0}^{N − span·m} v_j², v_j the `order` difference of S at lag m. Every m
-/// must leave at least one term (span·m ≤ N).
+/// Splits sorted factors into doubling chains (m, 2m, 4m, … up to `MAX_CHAIN` long) for the
+/// second-difference kernel; indices into `ms`. Third differences are not chained.
+fn chains(ms: &[u64], order: Order) -> Vec<Vec<usize>> {
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    for (i, &m) in ms.iter().enumerate() {
+        match out.last_mut() {
+            Some(chain)
+                if order == Order::Second
+                    && chain.len() < MAX_CHAIN
+                    && ms[*chain.last().unwrap()] * 2 == m =>
+            {
+                chain.push(i)
+            }
+            _ => out.push(vec![i]),
+        }
+    }
+    out
+}
+
+/// For each m in `ms` (sorted ascending): Σ_{j=0}^{N − span·m} v_j², v_j the `order` difference
+/// of S at lag m. Every m must leave at least one term (span·m ≤ N).
 pub(crate) fn overlapping_sums(s: &[f64], ms: &[u64], order: Order) -> Vec<f64> {
     let n = s.len() - 1;
     let span = order.span();
@@ -59,29 +79,13 @@ pub(crate) fn overlapping_sums(s: &[f64], ms: &[u64], order: Order) -> Vec<f64> 
         let most = group.iter().map(|&m| terms(m)).max().unwrap_or(0);
         let blocks = most.div_ceil(b);
         let g = group.len();
+        let plan = chains(group, order);
         let mut partial = vec![0.0f64; blocks * g];
-        for round in partial.chunks_mut(ROUND * g).enumerate() {
-            let (r, table) = round;
+        for (r, table) in partial.chunks_mut(ROUND * g).enumerate() {
             table.par_chunks_mut(g).enumerate().for_each(|(k, row)| {
                 let j0 = (r * ROUND + k) * b;
-                for (slot, &m) in row.iter_mut().zip(group) {
-                    let end = terms(m).min(j0 + b);
-                    if end <= j0 {
-                        continue;
-                    }
-                    let m = m as usize;
-                    let len = end - j0;
-                    *slot = match order {
-                        Order::Second => {
-                            sum_sq_second(&s[j0..j0 + len], &s[j0 + m..], &s[j0 + 2 * m..])
-                        }
-                        Order::Third => sum_sq_third(
-                            &s[j0..j0 + len],
-                            &s[j0 + m..],
-                            &s[j0 + 2 * m..],
-                            &s[j0 + 3 * m..],
-                        ),
-                    };
+                for chain in &plan {
+                    block_chain(s, j0, b, group, chain, order, &terms, row);
                 }
             });
         }
@@ -90,6 +94,68 @@ pub(crate) fn overlapping_sums(s: &[f64], ms: &[u64], order: Order) -> Vec<f64> 
         }
     }
     out
+}
+
+/// The terms of one chain of taus for start indices j0..j0 + b. Taus whose terms cover the whole
+/// block go through the chain kernel together; a τ whose last terms end inside the block is done
+/// alone (once per τ), so every τ sees the same lane layout and gives the same bits however the
+/// factors are grouped.
+#[allow(clippy::too_many_arguments)]
+fn block_chain(
+    s: &[f64],
+    j0: usize,
+    b: usize,
+    ms: &[u64],
+    chain: &[usize],
+    order: Order,
+    terms: &impl Fn(u64) -> usize,
+    row: &mut [f64],
+) {
+    let full = chain
+        .iter()
+        .take_while(|&&t| terms(ms[t]) >= j0 + b)
+        .count();
+    if full > 0 {
+        let m = ms[chain[0]] as usize;
+        let mut streams: [&[f64]; MAX_CHAIN + 2] = [&[]; MAX_CHAIN + 2];
+        streams[0] = &s[j0..];
+        for (c, slot) in streams[1..full + 2].iter_mut().enumerate() {
+            *slot = &s[j0 + (m << c)..];
+        }
+        match order {
+            Order::Second => {
+                let mut sums = [0.0f64; MAX_CHAIN];
+                chain_second(b, &streams[..full + 2], &mut sums);
+                for (c, &t) in chain[..full].iter().enumerate() {
+                    row[t] = sums[c];
+                }
+            }
+            Order::Third => row[chain[0]] = third_block(s, j0, b, m),
+        }
+    }
+    for &t in &chain[full..] {
+        let end = terms(ms[t]);
+        if end <= j0 {
+            continue;
+        }
+        let m = ms[t] as usize;
+        let len = end - j0;
+        row[t] = match order {
+            Order::Second => {
+                let mut one = [0.0f64; 1];
+                chain_second(len, &[&s[j0..], &s[j0 + m..], &s[j0 + 2 * m..]], &mut one);
+                one[0]
+            }
+            Order::Third => third_block(s, j0, len, m),
+        };
+    }
+}
+
+fn third_block(s: &[f64], j0: usize, len: usize, m: usize) -> f64 {
+    third(
+        len,
+        &[&s[j0..], &s[j0 + m..], &s[j0 + 2 * m..], &s[j0 + 3 * m..]],
+    )
 }
 
 /// Compensated (Neumaier) sum, in iteration order.
@@ -154,5 +220,28 @@ mod tests {
     fn neumaier_keeps_small_terms() {
         let v = [1e16, 1.0, -1e16, 1.0];
         assert_eq!(neumaier(v.into_iter()), 2.0);
+    }
+}
+
+#[cfg(test)]
+mod scratch {
+    use super::*;
+    use std::time::Instant;
+    #[test]
+    #[ignore]
+    fn sweep_speed() {
+        let n = 10_000_000usize;
+        let s: Vec<f64> = (0..=n).map(|i| (i as f64).sqrt()).collect();
+        let ms: Vec<u64> = (0..23).map(|k| 1u64 << k).collect();
+        for _ in 0..3 {
+            let t = Instant::now();
+            let r = overlapping_sums(&s, &ms, Order::Second);
+            eprintln!("octave sweep {:?}", t.elapsed());
+            let small: Vec<u64> = ms.iter().cloned().filter(|&m| m < 4096).collect();
+            let t = Instant::now();
+            let r2 = overlapping_sums(&s, &small, Order::Second);
+            eprintln!("small sweep {:?} avx2={}", t.elapsed(), std::arch::is_x86_feature_detected!("avx2"));
+            std::hint::black_box((r, r2));
+        }
     }
 }

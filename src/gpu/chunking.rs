@@ -137,7 +137,13 @@ pub fn welch_batch(shape: &WelchShape, caps: &Caps) -> Result<usize, GpuError> {
     b = b.min(fit(caps.binding, 0, power_per));
     b = b.min(fit(caps.binding, 0, work_per));
     let per_batch = power_per + 2 * work_per + input_per;
-    b = b.min(1 + fit(caps.budget, input_first + power_per + 2 * work_per, per_batch));
+    b = b.min(
+        1 + fit(
+            caps.budget,
+            input_first + power_per + 2 * work_per,
+            per_batch,
+        ),
+    );
     Ok(b.max(1) as usize)
 }
 
@@ -190,7 +196,10 @@ impl Paging {
         let offset = within / self.align * self.align;
         let skip = within - offset;
         let size = (self.page_len_of(page, total) - offset).min(self.window_len + self.align);
-        debug_assert!(skip + len <= size, "window [{start}, +{len}) crosses a page");
+        debug_assert!(
+            skip + len <= size,
+            "window [{start}, +{len}) crosses a page"
+        );
         Window {
             page,
             byte_offset: offset as u64 * self.elem,
@@ -255,7 +264,11 @@ mod tests {
     fn spans_cover_everything_once_and_stay_in_pages() {
         let paging = Paging::new(4, &caps(1 << 10, 1 << 12)); // 256-value windows, 1024-value pages
         assert_eq!((paging.align, paging.page_len), (8, 1024));
-        for (count, shifts) in [(5000usize, vec![0usize, 700]), (3000, vec![0, 1, 2]), (10, vec![0])] {
+        for (count, shifts) in [
+            (5000usize, vec![0usize, 700]),
+            (3000, vec![0, 1, 2]),
+            (10, vec![0]),
+        ] {
             let spans = spans(count, &shifts, &paging);
             let mut next = 0;
             for sp in &spans {
@@ -295,6 +308,12 @@ mod tests {
         // Work: 3·b·2048·8 ≤ 1 MiB → b ≤ 21.
         assert_eq!(welch_batch(&multi, &caps(1 << 20, 1 << 30)).unwrap(), 21);
         let err = welch_batch(&shape, &caps(40_000, 1 << 30)).unwrap_err();
-        assert!(matches!(err, GpuError::TooLarge { what: "one segment of every channel", .. }));
+        assert!(matches!(
+            err,
+            GpuError::TooLarge {
+                what: "one segment of every channel",
+                ..
+            }
+        ));
     }
 }

@@ -165,12 +165,13 @@ impl GpuContext {
                 limits.max_compute_invocations_per_workgroup
             )));
         }
-        let local_max = local_fft_size(limits.max_compute_workgroup_storage_size).ok_or_else(|| {
-            GpuError::DeviceRequest(format!(
-                "the kernels need 16 KiB of workgroup memory, the device has {} bytes",
-                limits.max_compute_workgroup_storage_size
-            ))
-        })?;
+        let local_max =
+            local_fft_size(limits.max_compute_workgroup_storage_size).ok_or_else(|| {
+                GpuError::DeviceRequest(format!(
+                    "the kernels need 16 KiB of workgroup memory, the device has {} bytes",
+                    limits.max_compute_workgroup_storage_size
+                ))
+            })?;
         let failure = Arc::new(Mutex::new(None));
         let slot = Arc::clone(&failure);
         device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
@@ -178,7 +179,10 @@ impl GpuContext {
         }));
         let slot = Arc::clone(&failure);
         device.set_device_lost_callback(move |reason, message| {
-            record(&slot, GpuError::DeviceLost(format!("{reason:?}: {message}")));
+            record(
+                &slot,
+                GpuError::DeviceLost(format!("{reason:?}: {message}")),
+            );
         });
         Ok(GpuContext {
             features: device.features(),
@@ -236,7 +240,10 @@ impl GpuContext {
             (true, false) => i.driver_info.clone(),
             (false, false) => format!("{} {}", i.driver, i.driver_info),
         };
-        format!("{} ({:?}, {:?}, {driver})", i.name, i.backend, i.device_type)
+        format!(
+            "{} ({:?}, {:?}, {driver})",
+            i.name, i.backend, i.device_type
+        )
     }
 
     /// The first failure the device reported, if any (the context is unusable after one).
@@ -266,7 +273,10 @@ impl GpuContext {
     /// The compiled pipeline of `kernel`, built on first use and kept.
     pub(crate) fn pipeline(&self, kernel: Kernel) -> Result<wgpu::ComputePipeline, GpuError> {
         self.check()?;
-        let mut cache = self.pipelines.lock().unwrap_or_else(PoisonError::into_inner);
+        let mut cache = self
+            .pipelines
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
         if let Some(p) = cache.get(&kernel) {
             return Ok(p.clone());
         }
@@ -292,7 +302,11 @@ impl GpuContext {
                 module: &module,
                 entry_point: Some(kernel.entry_point()),
                 compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: if kernel.has_local_fft() { &constants } else { &[] },
+                    constants: if kernel.has_local_fft() {
+                        &constants
+                    } else {
+                        &[]
+                    },
                     // Every kernel writes workgroup memory before reading it.
                     zero_initialize_workgroup_memory: false,
                 },
@@ -306,17 +320,16 @@ impl GpuContext {
 
     /// A buffer of at least `size` bytes with `usage`, from the pool when one is free.
     pub(crate) fn buffer(&self, usage: wgpu::BufferUsages, size: u64) -> Result<Lease, GpuError> {
-        let lease = self.pool.acquire(&self.device, usage, size, self.limits.max_buffer_size)?;
+        let lease = self
+            .pool
+            .acquire(&self.device, usage, size, self.limits.max_buffer_size)?;
         self.check()?;
         Ok(lease)
     }
 
     /// A uniform buffer holding `items`, each at an offset aligned for dynamic binding; returns the
     /// buffer and the stride between items.
-    pub(crate) fn uniforms<T: bytemuck::Pod>(
-        &self,
-        items: &[T],
-    ) -> Result<(Lease, u64), GpuError> {
+    pub(crate) fn uniforms<T: bytemuck::Pod>(&self, items: &[T]) -> Result<(Lease, u64), GpuError> {
         let align = u64::from(self.limits.min_uniform_buffer_offset_alignment).max(16);
         let size = std::mem::size_of::<T>() as u64;
         let stride = size.div_ceil(align) * align;

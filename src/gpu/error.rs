@@ -42,7 +42,9 @@ impl GpuError {
     pub(crate) fn from_wgpu(e: &wgpu::Error) -> GpuError {
         match e {
             wgpu::Error::OutOfMemory { .. } => GpuError::OutOfMemory(e.to_string()),
-            wgpu::Error::Validation { description, .. } => GpuError::Validation(description.clone()),
+            wgpu::Error::Validation { description, .. } => {
+                GpuError::Validation(description.clone())
+            }
             wgpu::Error::Internal { description, .. } => GpuError::DeviceLost(description.clone()),
         }
     }

@@ -96,14 +96,20 @@ mod tests {
             for (t, w) in tw.iter().enumerate().step_by((n / 512).max(1)) {
                 let a = -2.0 * std::f64::consts::PI * t as f64 / n as f64;
                 let (c, s) = (a.cos() as f32, a.sin() as f32);
-                assert!((w[0] - c).abs() <= 1e-7 && (w[1] - s).abs() <= 1e-7, "n {n} t {t}");
+                assert!(
+                    (w[0] - c).abs() <= 1e-7 && (w[1] - s).abs() <= 1e-7,
+                    "n {n} t {t}"
+                );
             }
         }
         let tw = twiddles(8);
         let h = std::f32::consts::FRAC_1_SQRT_2;
         let expected = [[1.0, 0.0], [h, -h], [0.0, -1.0], [-h, -h]];
         for (w, e) in tw.iter().zip(expected) {
-            assert!((w[0] - e[0]).abs() < 1e-7 && (w[1] - e[1]).abs() < 1e-7, "{w:?} {e:?}");
+            assert!(
+                (w[0] - e[0]).abs() < 1e-7 && (w[1] - e[1]).abs() < 1e-7,
+                "{w:?} {e:?}"
+            );
         }
     }
 

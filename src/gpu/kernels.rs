@@ -5,7 +5,7 @@
 
 use std::sync::Arc;
 
-use super::avar::{run_octave_level, run_prefix, OctaveParams, PrefixParams, PrefixData};
+use super::avar::{run_octave_level, run_prefix, OctaveParams, PrefixData, PrefixParams};
 use super::fft::{twiddles, FftAlgorithm};
 use super::shaders::Kernel;
 use super::welch::{AccumulateParams, Capacity, WelchDevice, WelchParams};
@@ -46,7 +46,13 @@ pub fn welch_local(
     window: &[f32],
     refs: &[f32],
 ) -> Result<Vec<f32>, GpuError> {
-    let dev = welch_device(ctx, &WelchParams { split: 0, ..*p }, window, refs.len(), input.len())?;
+    let dev = welch_device(
+        ctx,
+        &WelchParams { split: 0, ..*p },
+        window,
+        refs.len(),
+        input.len(),
+    )?;
     dev.load(p, input, refs);
     dev.run_kernel(Kernel::WelchLocal, p.segments as usize)?;
     let mut power = dev.read_f32("power")?;
@@ -158,7 +164,11 @@ pub fn welch_accumulate(
 
 fn read_complex(dev: &WelchDevice, which: &str, len: usize) -> Result<Vec<C32>, GpuError> {
     let flat = dev.read_f32(which)?;
-    Ok(flat.chunks_exact(2).take(len).map(|c| [c[0], c[1]]).collect())
+    Ok(flat
+        .chunks_exact(2)
+        .take(len)
+        .map(|c| [c[0], c[1]])
+        .collect())
 }
 
 /// `avar_octave` on one level: terms `(hi[i] − lo[i])²` summed per workgroup (returned), and the

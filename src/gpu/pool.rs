@@ -25,7 +25,11 @@ struct Idle {
 /// A buffer on loan from the pool; returned when dropped.
 pub(crate) struct Lease {
     buffer: Option<wgpu::Buffer>,
-    pool: Arc<Mutex<Idle>>,
+    pool: Option<Arc<Mutex<Idle>>>,
+}
+
+impl Lease {
+    pub(crate) fn unpooled(buffer: wgpu::Buffer) -> Lease { Lease { buffer: Some(buffer), pool: None } }
 }
 
 impl BufferPool {
@@ -58,13 +62,13 @@ impl BufferPool {
             });
         }
         let mut idle = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
-        let found = idle
+        let found = if std::env::var("NOPOOL").is_ok_and(|v| (v == "uniform") == usage.contains(wgpu::BufferUsages::UNIFORM)) { None } else { idle
             .buffers
             .iter()
             .enumerate()
             .filter(|(_, b)| b.usage() == usage && b.size() >= size && b.size() <= 2 * size)
             .min_by_key(|(_, b)| b.size())
-            .map(|(i, _)| i);
+            .map(|(i, _)| i) };
         let buffer = match found {
             Some(i) => {
                 let b = idle.buffers.swap_remove(i);
@@ -73,7 +77,10 @@ impl BufferPool {
             }
             None => {
                 drop(idle);
-                let rounded = size.checked_next_power_of_two().unwrap_or(size).min(max_size);
+                let rounded = size
+                    .checked_next_power_of_two()
+                    .unwrap_or(size)
+                    .min(max_size);
                 device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("imunoise pooled"),
                     size: rounded.max(size),
@@ -84,7 +91,7 @@ impl BufferPool {
         };
         Ok(Lease {
             buffer: Some(buffer),
-            pool: Arc::clone(&self.inner),
+            pool: Some(Arc::clone(&self.inner)),
         })
     }
 }
@@ -102,7 +109,8 @@ impl Drop for Lease {
         let Some(buffer) = self.buffer.take() else {
             return;
         };
-        let mut idle = self.pool.lock().unwrap_or_else(PoisonError::into_inner);
+        let Some(pool) = &self.pool else { return };
+        let mut idle = pool.lock().unwrap_or_else(PoisonError::into_inner);
         idle.bytes += buffer.size();
         idle.buffers.push(buffer);
         while idle.bytes > idle.budget {

@@ -78,6 +78,7 @@ pub fn psd_table(results: &[&FileResult]) -> Table {
                     ("unit".into(), Column::Str(vec![unit; n])),
                     ("freq_hz".into(), Column::F64(c.psd.freq_hz.clone())),
                     ("psd".into(), Column::F64(c.psd.value.clone())),
+                    ("dof".into(), Column::F64(c.psd.dof.clone())),
                 ],
                 metadata: Default::default(),
             });
@@ -225,6 +226,7 @@ pub fn file_json(r: &FileResult) -> Value {
                     "enbw_hz": c.psd.enbw_hz,
                     "freq_hz": c.psd.freq_hz,
                     "value": c.psd.value,
+                    "dof": c.psd.dof,
                 });
                 if let Some(b) = &c.binned {
                     v["binned"] = json!({

@@ -53,7 +53,10 @@ fn check(root: &Value, schema: &Value, v: &Value, path: &str) -> Result<(), Stri
         }
     }
     if let Some(Value::Array(options)) = s.get("oneOf") {
-        let passing = options.iter().filter(|o| check(root, o, v, path).is_ok()).count();
+        let passing = options
+            .iter()
+            .filter(|o| check(root, o, v, path).is_ok())
+            .count();
         if passing != 1 {
             return Err(format!("{path}: matches {passing} of oneOf"));
         }
@@ -83,29 +86,52 @@ fn check(root: &Value, schema: &Value, v: &Value, path: &str) -> Result<(), Stri
 #[test]
 fn every_command_writes_documents_that_match_the_schema() {
     let root = repo_root();
-    let schema: Value =
-        serde_json::from_str(&std::fs::read_to_string(root.join("schema/imunoise-output.schema.json")).unwrap())
-            .unwrap();
+    let schema: Value = serde_json::from_str(
+        &std::fs::read_to_string(root.join("schema/imunoise-output.schema.json")).unwrap(),
+    )
+    .unwrap();
     let dir = tempfile::tempdir().unwrap();
     let mut values = noise(20_000, 5);
     values[7] = f64::NAN;
     let bad = dir.path().join("bad.arrow");
-    write_ipc_file(&bad, &batch(&[f64_col("g", values, Some("deg/h"))], Some(10.0)), 4096);
+    write_ipc_file(
+        &bad,
+        &batch(&[f64_col("g", values, Some("deg/h"))], Some(10.0)),
+        4096,
+    );
     let sample = root.join("data/sample_imu.arrow");
     for command in ["info", "psd", "avar", "analyze"] {
-        let mut args = vec![command, sample.to_str().unwrap(), bad.to_str().unwrap(), "--json"];
+        let mut args = vec![
+            command,
+            sample.to_str().unwrap(),
+            bad.to_str().unwrap(),
+            "--json",
+        ];
         if command == "avar" || command == "analyze" {
             args.extend(["--stat", "oadev,hdev"]);
         }
         let out = imunoise(&args, dir.path());
-        assert_eq!(out.status.code(), Some(1), "{command}: {}", String::from_utf8_lossy(&out.stderr));
+        assert_eq!(
+            out.status.code(),
+            Some(1),
+            "{command}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         let doc: Value = serde_json::from_slice(&out.stdout).unwrap();
         check(&schema, &schema, &doc, command).unwrap_or_else(|e| panic!("{command}: {e}"));
         assert_eq!(doc["files"][0]["status"], "ok");
         assert_eq!(doc["files"][1]["status"], "error");
         let has = |k: &str| doc["files"][0].get(k).is_some();
-        assert_eq!(has("psd"), command == "psd" || command == "analyze", "{command}");
-        assert_eq!(has("avar"), command == "avar" || command == "analyze", "{command}");
+        assert_eq!(
+            has("psd"),
+            command == "psd" || command == "analyze",
+            "{command}"
+        );
+        assert_eq!(
+            has("avar"),
+            command == "avar" || command == "analyze",
+            "{command}"
+        );
     }
 }
 

@@ -70,7 +70,12 @@ pub fn oadev_variances(
             bytes += more;
             end += 1;
         }
-        out.extend(group_variances(ctx, &caps, &channels[start..end], &ms[start..end])?);
+        out.extend(group_variances(
+            ctx,
+            &caps,
+            &channels[start..end],
+            &ms[start..end],
+        )?);
         start = end;
     }
     Ok(out)
@@ -78,8 +83,16 @@ pub fn oadev_variances(
 
 fn footprint(ch: &ChannelData<'_>, ms: &[u64]) -> u64 {
     let n = ch.y.len() as u64;
-    let octave = if ms.iter().any(|m| m.is_power_of_two()) { 8 * n } else { 0 };
-    let other = if ms.iter().any(|m| !m.is_power_of_two()) { 8 * (n + 1) } else { 0 };
+    let octave = if ms.iter().any(|m| m.is_power_of_two()) {
+        8 * n
+    } else {
+        0
+    };
+    let other = if ms.iter().any(|m| !m.is_power_of_two()) {
+        8 * (n + 1)
+    } else {
+        0
+    };
     octave + other
 }
 
@@ -160,8 +173,14 @@ fn group_variances(
     // 2. Dispatch layout: spans and partial-sum slots.
     let align32 = (caps.align / 4).max(1) as usize;
     let align64 = (caps.align / 8).max(1) as usize;
-    let mut slots32 = Slots { align: align32, next: 0 };
-    let mut slots64 = Slots { align: align64, next: 0 };
+    let mut slots32 = Slots {
+        align: align32,
+        next: 0,
+    };
+    let mut slots64 = Slots {
+        align: align64,
+        next: 0,
+    };
     let mut tallies = Vec::new();
     // (channel, step, first term, terms)
     let mut plan: Vec<(usize, Step, usize, usize)> = Vec::new();
@@ -317,8 +336,15 @@ fn group_variances(
 /// One dispatch of the plan.
 #[derive(Debug, Clone, Copy)]
 enum Step {
-    Level { level: usize, last: bool, slot: usize },
-    Prefix { m: usize, slot: usize },
+    Level {
+        level: usize,
+        last: bool,
+        slot: usize,
+    },
+    Prefix {
+        m: usize,
+        slot: usize,
+    },
 }
 
 /// Input of [`run_prefix`]: the three windows' values.

@@ -87,7 +87,10 @@ mod tests {
                 let (a, b, c) = (f.words[j], f.words[j + m], f.words[j + 2 * m]);
                 let q = to_f32(sub64(sub64(c, b), sub64(b, a))) * f.scale;
                 let got = f64::from(q) * f.amplitude;
-                assert!((got - d).abs() <= 1e-6 * d.abs() + 1e-9, "m {m} j {j}: {got} vs {d}");
+                assert!(
+                    (got - d).abs() <= 1e-6 * d.abs() + 1e-9,
+                    "m {m} j {j}: {got} vs {d}"
+                );
             }
         }
     }

@@ -2,6 +2,8 @@
 //! the same functions with the same names, constants and loop structure, in f32, one workgroup
 //! simulated thread by thread where the order of operations depends on the thread.
 
+use crate::gpu::welch::WelchParams;
+
 /// Threads per workgroup (`WG`).
 pub const WG: u32 = 256;
 
@@ -171,17 +173,16 @@ pub fn workgroup_sum(wg: &mut Workgroup, v: &[C32]) -> C32 {
     total
 }
 
-/// `fft_columns` over every column of every slot of `work` (rows of `half` values).
+/// `fft_columns` over every column of every slot of `work` (rows of `p.half` values).
 pub fn fft_columns(
-    nfft: u32,
-    split: u32,
+    p: &WelchParams,
     twiddles: &[C32],
     work: &mut [C32],
     slots: usize,
     local_max: u32,
 ) {
-    let half = nfft / 2;
-    let m1 = split;
+    let (nfft, half) = (p.nfft, p.half);
+    let m1 = p.split;
     let m2 = half / m1;
     let mut wg = Workgroup::new(local_max);
     for slot in 0..slots {
@@ -201,16 +202,15 @@ pub fn fft_columns(
 
 /// `fft_rows` over every row of every slot: `work` (after `fft_columns`) into `spectrum`.
 pub fn fft_rows(
-    nfft: u32,
-    split: u32,
+    p: &WelchParams,
     twiddles: &[C32],
     work: &[C32],
     spectrum: &mut [C32],
     slots: usize,
     local_max: u32,
 ) {
-    let half = nfft / 2;
-    let m1 = split;
+    let (nfft, half) = (p.nfft, p.half);
+    let m1 = p.split;
     let m2 = half / m1;
     let mut wg = Workgroup::new(local_max);
     for slot in 0..slots {

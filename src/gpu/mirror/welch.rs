@@ -5,7 +5,7 @@
 use super::fft::{
     add, local_result, norm_sqr, stockham_local, twist, workgroup_sum, Workgroup, C32, WG,
 };
-use crate::gpu::welch::WelchParams;
+use crate::gpu::welch::{AccumulateParams, WelchParams};
 
 const DETREND_NONE: u32 = 0;
 const DETREND_LINEAR: u32 = 2;
@@ -212,16 +212,10 @@ pub fn welch_power(p: &WelchParams, twiddles: &[C32], spectrum: &[C32], slots: u
     power
 }
 
-/// `welch_accumulate`: adds (or, with `reset`, writes) each channel's column sums of `power`
+/// `welch_accumulate`: adds (or, with `q.reset`, writes) each channel's column sums of `power`
 /// into `acc` (channels × bins).
-pub fn welch_accumulate(
-    bins: u32,
-    segments: u32,
-    reset: bool,
-    power: &[f32],
-    acc: &mut [f32],
-    channels: usize,
-) {
+pub fn welch_accumulate(q: &AccumulateParams, power: &[f32], acc: &mut [f32], channels: usize) {
+    let (bins, segments) = (q.bins, q.segments);
     for ch in 0..channels as u32 {
         for k in 0..bins {
             let mut outer = 0.0f32;
@@ -234,7 +228,7 @@ pub fn welch_accumulate(
                 }
             }
             let i = (ch * bins + k) as usize;
-            let prior = if reset { 0.0 } else { acc[i] };
+            let prior = if q.reset == 0 { acc[i] } else { 0.0 };
             acc[i] = prior + (outer + inner);
         }
     }

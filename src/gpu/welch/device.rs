@@ -51,14 +51,15 @@ impl WelchDevice {
         let slots = (cap.channels * cap.segments) as u64;
         let (half, bins) = (u64::from(template.half), u64::from(template.bins));
         let c = &*ctx;
-        let tw = Buf::with_data(c, &twiddles(template.nfft as usize))?;
-        let window = Buf::with_data(c, window)?;
+        let twd = twiddles(template.nfft as usize);
+        let tw = Buf::storage_dbg(c, std::mem::size_of_val(&twd[..]) as u64, "tw")?; tw.write(c, 0, &twd);
+        let window = { let b = Buf::storage_dbg(c, std::mem::size_of_val(window) as u64, "window")?; b.write(c, 0, window); b };
         let params = Buf::uniform::<WelchParams>(c)?;
         let acc_params = Buf::uniform::<AccumulateParams>(c)?;
-        let input = Buf::storage(c, (cap.channels * cap.stride) as u64 * 4)?;
-        let refs = Buf::storage(c, cap.channels as u64 * 4)?;
-        let power = Buf::storage(c, slots * bins * 4)?;
-        let acc = Buf::storage(c, cap.channels as u64 * bins * 4)?;
+        let input = Buf::storage_dbg(c, (cap.channels * cap.stride) as u64 * 4, "input")?;
+        let refs = Buf::storage_dbg(c, cap.channels as u64 * 4, "refs")?;
+        let power = Buf::storage_dbg(c, slots * bins * 4, "power")?;
+        let acc = Buf::storage_dbg(c, cap.channels as u64 * bins * 4, "acc")?;
         let (work, spectrum) = match algorithm {
             FftAlgorithm::Local => (None, None),
             FftAlgorithm::FourStep { .. } => (
@@ -197,12 +198,12 @@ impl WelchDevice {
 
     /// Encodes and submits `kernels` for a batch of `segments` per channel.
     fn submit(&self, kernels: &[Kernel], segments: usize) {
-        let mut encoder = self
-            .ctx
-            .device()
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("welch batch"),
-            });
+        let mut encoder =
+            self.ctx
+                .device()
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("welch batch"),
+                });
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("welch"),

@@ -199,7 +199,9 @@ impl GpuWelch {
         let Engine::Gpu(device) = &self.engine else {
             unreachable!("only called on the GPU path")
         };
-        let Capacity { segments: batch, .. } = device.capacity();
+        let Capacity {
+            segments: batch, ..
+        } = device.capacity();
         let (step, n) = (self.plan.step(), self.plan.nperseg());
         let bins = self.plan.bins();
         let subtract_mean = self.plan.config().detrend != Detrend::None;
@@ -321,7 +323,12 @@ fn add_into(out: &mut [f64], sums: &[f32]) {
 }
 
 /// Samples [start, start + len) of `held ++ chunk`, as (part in `held`, part in `chunk`).
-fn split_range<'a>(held: &'a [f64], chunk: &'a [f64], start: usize, len: usize) -> (&'a [f64], &'a [f64]) {
+fn split_range<'a>(
+    held: &'a [f64],
+    chunk: &'a [f64],
+    start: usize,
+    len: usize,
+) -> (&'a [f64], &'a [f64]) {
     if start >= held.len() {
         let s = start - held.len();
         (&[], &chunk[s..s + len])

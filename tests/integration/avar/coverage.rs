@@ -39,7 +39,12 @@ fn coverage(stat: Statistic, ms: &[u64], conf: Confidence) -> Vec<f64> {
 #[test]
 fn one_sigma_intervals_cover_at_their_rate() {
     let ms = [1u64, 4, 16, 64];
-    for stat in [Statistic::Oadev, Statistic::Adev, Statistic::Ohdev, Statistic::Hdev] {
+    for stat in [
+        Statistic::Oadev,
+        Statistic::Adev,
+        Statistic::Ohdev,
+        Statistic::Hdev,
+    ] {
         let cov = coverage(stat, &ms, Confidence::OneSigma);
         eprintln!("{stat}: 1σ coverage at m = {ms:?}: {cov:?} (nominal {ONE_SIGMA:.3})");
         for (m, c) in ms.iter().zip(&cov) {
@@ -58,4 +63,3 @@ fn ninety_percent_intervals_cover_at_their_rate() {
         assert!((0.835..=0.965).contains(c), "m={m}: coverage {c}");
     }
 }
-

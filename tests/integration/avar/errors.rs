@@ -21,9 +21,17 @@ fn too_short_names_what_was_needed_and_given() {
         }
     );
     let text = err.to_string();
-    assert!(text.contains("oadev") && text.contains('3') && text.contains('2'), "{text}");
+    assert!(
+        text.contains("oadev") && text.contains('3') && text.contains('2'),
+        "{text}"
+    );
     // Each statistic's own minimum at m = 1.
-    let needed = [(Statistic::Adev, 3), (Statistic::Mdev, 3), (Statistic::Hdev, 4), (Statistic::Ohdev, 4)];
+    let needed = [
+        (Statistic::Adev, 3),
+        (Statistic::Mdev, 3),
+        (Statistic::Hdev, 4),
+        (Statistic::Ohdev, 4),
+    ];
     for (stat, n) in needed {
         let y = vec![0.5; n - 1];
         assert!(
@@ -37,7 +45,12 @@ fn too_short_names_what_was_needed_and_given() {
 #[test]
 fn explicit_tau_beyond_the_data_is_too_short() {
     let y: Vec<f64> = (0..1000).map(|i| (i as f64).sin()).collect();
-    let err = run(&y, &TauGrid::Explicit(vec![1, 10, 600, 400]), Statistic::Oadev).unwrap_err();
+    let err = run(
+        &y,
+        &TauGrid::Explicit(vec![1, 10, 600, 400]),
+        Statistic::Oadev,
+    )
+    .unwrap_err();
     assert_eq!(
         err,
         AvarError::TooShort {
@@ -85,19 +98,37 @@ fn non_finite_sample_is_reported_with_its_index() {
 fn invalid_rate_and_confidence() {
     let y = vec![1.0, 2.0, 0.5, 0.25, 3.0];
     for rate in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        let err = compute(&y, rate, &TauGrid::Octave, Statistic::Oadev, Confidence::OneSigma);
+        let err = compute(
+            &y,
+            rate,
+            &TauGrid::Octave,
+            Statistic::Oadev,
+            Confidence::OneSigma,
+        );
         assert!(matches!(err, Err(AvarError::InvalidRate(_))), "{rate}");
     }
     for p in [0.0, 1.0, 1.2, -0.5, f64::NAN] {
-        let err = compute(&y, 1.0, &TauGrid::Octave, Statistic::Oadev, Confidence::Level(p));
+        let err = compute(
+            &y,
+            1.0,
+            &TauGrid::Octave,
+            Statistic::Oadev,
+            Confidence::Level(p),
+        );
         assert!(matches!(err, Err(AvarError::InvalidConfidence(_))), "{p}");
     }
 }
 
 #[test]
 fn constant_and_huge_data_do_not_break() {
-    let d = compute(&[4.0; 500], 1.0, &TauGrid::Octave, Statistic::Oadev, Confidence::OneSigma)
-        .unwrap();
+    let d = compute(
+        &[4.0; 500],
+        1.0,
+        &TauGrid::Octave,
+        Statistic::Oadev,
+        Confidence::OneSigma,
+    )
+    .unwrap();
     assert!(d.variance.iter().all(|&v| v == 0.0));
     assert!(d.variance_hi.iter().all(|&v| v == 0.0));
     assert_eq!(

@@ -24,14 +24,27 @@ fn nbs14_1000() -> Vec<f64> {
 }
 
 /// The 9-point frequency set.
-const NBS14_9: [f64; 9] = [892.0, 809.0, 823.0, 798.0, 671.0, 644.0, 883.0, 903.0, 677.0];
+const NBS14_9: [f64; 9] = [
+    892.0, 809.0, 823.0, 798.0, 671.0, 644.0, 883.0, 903.0, 677.0,
+];
 
 fn check(y: &[f64], stat: Statistic, published: &[(u64, f64)]) {
     let ms: Vec<u64> = published.iter().map(|p| p.0).collect();
-    let d = compute(y, 1.0, &TauGrid::Explicit(ms.clone()), stat, Confidence::OneSigma).unwrap();
+    let d = compute(
+        y,
+        1.0,
+        &TauGrid::Explicit(ms.clone()),
+        stat,
+        Confidence::OneSigma,
+    )
+    .unwrap();
     assert_eq!(d.m, ms);
     for (dev, &(m, want)) in d.deviation().iter().zip(published) {
-        let allowed = if (stat, m) == (Statistic::Hdev, 100) { 0.6 } else { 0.5 };
+        let allowed = if (stat, m) == (Statistic::Hdev, 100) {
+            0.6
+        } else {
+            0.5
+        };
         let off = units_in_last_digit(*dev, want, 7);
         assert!(
             off <= allowed,
@@ -44,10 +57,26 @@ fn check(y: &[f64], stat: Statistic, published: &[(u64, f64)]) {
 fn nbs14_1000_point_set() {
     let y = nbs14_1000();
     assert_eq!(y[1], 395_529_916.0 / 2_147_483_647.0); // n₁ as printed in SP 1065
-    check(&y, Statistic::Adev, &[(1, 0.2922319), (10, 0.09965736), (100, 0.03897804)]);
-    check(&y, Statistic::Oadev, &[(1, 0.2922319), (10, 0.09159953), (100, 0.03241343)]);
-    check(&y, Statistic::Mdev, &[(1, 0.2922319), (10, 0.06172376), (100, 0.02170921)]);
-    check(&y, Statistic::Hdev, &[(1, 0.2943883), (10, 0.1052754), (100, 0.03910860)]);
+    check(
+        &y,
+        Statistic::Adev,
+        &[(1, 0.2922319), (10, 0.09965736), (100, 0.03897804)],
+    );
+    check(
+        &y,
+        Statistic::Oadev,
+        &[(1, 0.2922319), (10, 0.09159953), (100, 0.03241343)],
+    );
+    check(
+        &y,
+        Statistic::Mdev,
+        &[(1, 0.2922319), (10, 0.06172376), (100, 0.02170921)],
+    );
+    check(
+        &y,
+        Statistic::Hdev,
+        &[(1, 0.2943883), (10, 0.1052754), (100, 0.03910860)],
+    );
 }
 
 #[test]
@@ -57,9 +86,15 @@ fn nbs14_9_point_set() {
     check(&NBS14_9, Statistic::Mdev, &[(1, 91.22945), (2, 74.78849)]);
     // Term counts: SP 1065's N − 1, ⌊N/m⌋ − 1, N − 2m + 1, N − 3m + 2.
     let n = |stat, m| {
-        compute(&NBS14_9, 1.0, &TauGrid::Explicit(vec![m]), stat, Confidence::OneSigma)
-            .unwrap()
-            .n_terms[0]
+        compute(
+            &NBS14_9,
+            1.0,
+            &TauGrid::Explicit(vec![m]),
+            stat,
+            Confidence::OneSigma,
+        )
+        .unwrap()
+        .n_terms[0]
     };
     assert_eq!(n(Statistic::Adev, 1), 8);
     assert_eq!(n(Statistic::Adev, 2), 3);

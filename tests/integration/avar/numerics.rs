@@ -52,9 +52,19 @@ fn exact_oavar(ints: &[i64], m: usize) -> f64 {
 fn oadev_of_1e7_samples_with_offset_and_drift_is_exact_to_1e_9() {
     let n = 10_000_000;
     let (ints, y) = offset_drift_data(n, 7);
-    let d = compute(&y, 200.0, &TauGrid::Octave, Statistic::Oadev, Confidence::OneSigma).unwrap();
+    let d = compute(
+        &y,
+        200.0,
+        &TauGrid::Octave,
+        Statistic::Oadev,
+        Confidence::OneSigma,
+    )
+    .unwrap();
     assert_eq!(d.m.len(), 23); // 1 … 2^22
-    let exact: Vec<f64> = d.m.par_iter().map(|&m| exact_oavar(&ints, m as usize)).collect();
+    let exact: Vec<f64> =
+        d.m.par_iter()
+            .map(|&m| exact_oavar(&ints, m as usize))
+            .collect();
     let mut worst = 0.0f64;
     for ((m, got), want) in d.m.iter().zip(&d.variance).zip(&exact) {
         let r = rel(*got, *want);
@@ -80,7 +90,10 @@ fn fast_paths_match_the_textbook_reference() {
         assert!(d.len() >= 10, "{stat}");
         for (&m, got) in d.m.iter().zip(&d.variance) {
             let want = reference::variance(&y, m, stat);
-            assert!(rel(*got, want) < 1e-11, "{stat} m={m}: {got:e} vs reference {want:e}");
+            assert!(
+                rel(*got, want) < 1e-11,
+                "{stat} m={m}: {got:e} vs reference {want:e}"
+            );
         }
     }
 }
@@ -107,4 +120,3 @@ fn results_do_not_depend_on_the_thread_count() {
         .install(run);
     assert_eq!(one, three); // bit-identical, including EDF and bounds
 }
-

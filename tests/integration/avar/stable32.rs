@@ -11,8 +11,8 @@ use imunoise::avar::{
     compute, identify_noise, variance_bounds, Confidence, Statistic, TauGrid, ONE_SIGMA,
 };
 
-use super::support::{agrees_to_printed, ocxo_rate, phase_dat_rate, read_stable32, rel};
 use super::support::Stable32Row;
+use super::support::{agrees_to_printed, ocxo_rate, phase_dat_rate, read_stable32, rel};
 
 /// Stable32's confidence factor for its 1σ bounds.
 const STABLE32_CONFIDENCE: f64 = 0.683;
@@ -36,7 +36,11 @@ fn phase_dat_overlapping_allan_at_every_af() {
     let rows = read_stable32("phase_dat_oadev.txt");
     assert_eq!(rows.len(), 139);
     deviations_agree(&y, Statistic::Oadev, &rows);
-    deviations_agree(&y, Statistic::Oadev, &read_stable32("phase_dat_oadev_octave.txt"));
+    deviations_agree(
+        &y,
+        Statistic::Oadev,
+        &read_stable32("phase_dat_oadev_octave.txt"),
+    );
 }
 
 #[test]
@@ -56,8 +60,14 @@ fn ocxo_overlapping_allan_all_tau() {
     assert_eq!(rows.len(), 273);
     deviations_agree(&y, Statistic::Oadev, &rows);
     let ms: Vec<u64> = rows.iter().map(|r| r.af).collect();
-    let d = compute(&y, 1.0, &TauGrid::Explicit(ms), Statistic::Oadev, Confidence::OneSigma)
-        .unwrap();
+    let d = compute(
+        &y,
+        1.0,
+        &TauGrid::Explicit(ms),
+        Statistic::Oadev,
+        Confidence::OneSigma,
+    )
+    .unwrap();
     for (dev, row) in d.deviation().iter().zip(&rows) {
         assert!(rel(*dev, row.sigma) < 1e-4, "AF {}", row.af);
     }
@@ -83,7 +93,9 @@ fn octave_bounds_are_greenhall_edf() {
     let n = 1000; // rate samples
     let greenhall = bound_error(&rows, |r| edf(Statistic::Oadev, r.alpha, r.af, n));
     let simple = bound_error(&rows, |r| simple_edf(r.alpha, r.af, n as u64 + 1));
-    eprintln!("PHASE.DAT octave bounds: Greenhall max rel err {greenhall:.2e}, simple {simple:.2e}");
+    eprintln!(
+        "PHASE.DAT octave bounds: Greenhall max rel err {greenhall:.2e}, simple {simple:.2e}"
+    );
     assert!(greenhall < 4e-4, "{greenhall:e}");
     assert!(simple > 2e-3, "{simple:e}");
 }
@@ -122,7 +134,11 @@ fn octave_bounds_with_own_noise_identification() {
 }
 
 /// (agreements where Stable32 used the autocorrelation, rows there, agreements elsewhere, rows).
-fn alpha_agreement(y: &[f64], stat: Statistic, rows: &[Stable32Row]) -> (usize, usize, usize, usize) {
+fn alpha_agreement(
+    y: &[f64],
+    stat: Statistic,
+    rows: &[Stable32Row],
+) -> (usize, usize, usize, usize) {
     let mut counts = (0, 0, 0, 0);
     for row in rows {
         let ours = identify_noise(y, row.af, stat).unwrap().alpha;
@@ -144,10 +160,34 @@ fn noise_identification_agrees_with_stable32() {
     let phase = phase_dat_rate();
     let ocxo = ocxo_rate();
     let cases = [
-        ("PHASE.DAT oadev octave", &phase, Statistic::Oadev, "phase_dat_oadev_octave.txt", 1),
-        ("PHASE.DAT oadev", &phase, Statistic::Oadev, "phase_dat_oadev.txt", 87),
-        ("PHASE.DAT adev", &phase, Statistic::Adev, "phase_dat_adev.txt", 80),
-        ("OCXO oadev all-tau", &ocxo, Statistic::Oadev, "stable32_oadev_alltau.txt", 91),
+        (
+            "PHASE.DAT oadev octave",
+            &phase,
+            Statistic::Oadev,
+            "phase_dat_oadev_octave.txt",
+            1,
+        ),
+        (
+            "PHASE.DAT oadev",
+            &phase,
+            Statistic::Oadev,
+            "phase_dat_oadev.txt",
+            87,
+        ),
+        (
+            "PHASE.DAT adev",
+            &phase,
+            Statistic::Adev,
+            "phase_dat_adev.txt",
+            80,
+        ),
+        (
+            "OCXO oadev all-tau",
+            &ocxo,
+            Statistic::Oadev,
+            "stable32_oadev_alltau.txt",
+            91,
+        ),
     ];
     for (name, y, stat, file, b1_floor) in cases {
         let rows = read_stable32(file);
@@ -157,6 +197,9 @@ fn noise_identification_agrees_with_stable32() {
              {b1_hits}/{b1_rows} B1/R(n) AFs"
         );
         assert_eq!(acf_hits, acf_rows, "{name}: lag-1 autocorrelation region");
-        assert!(b1_hits >= b1_floor, "{name}: {b1_hits}/{b1_rows} in the B1 region");
+        assert!(
+            b1_hits >= b1_floor,
+            "{name}: {b1_hits}/{b1_rows} in the B1 region"
+        );
     }
 }

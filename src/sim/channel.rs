@@ -1,0 +1,111 @@
+//! One simulated inertial channel: every component summed, then quantised.
+
+use crate::model::{Coefficients, GaussMarkov, Sinusoid};
+
+use super::flicker::flicker;
+use super::processes::{add_gauss_markov, add_random_walk, add_ramp, add_sinusoid, add_white};
+use super::quantize::quantize;
+use super::rng::Rng;
+use super::spec::ChannelSpec;
+
+/// What a simulated channel truly contains, in the model's SI types: what a fit should find.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ChannelTruth {
+    pub bias: f64,
+    pub coefficients: Coefficients,
+    pub gauss_markov: Vec<GaussMarkov>,
+    pub sinusoids: Vec<Sinusoid>,
+    /// Rate per °C of the true temperature's rise above its start.
+    pub temperature_coefficient: f64,
+}
+
+impl ChannelTruth {
+    pub(crate) fn of(spec: &ChannelSpec) -> ChannelTruth {
+        ChannelTruth {
+            bias: spec.bias,
+            coefficients: spec.noise,
+            gauss_markov: spec.gauss_markov.clone(),
+            sinusoids: spec
+                .sinusoids
+                .iter()
+                .map(|s| Sinusoid {
+                    amplitude: s.amplitude,
+                    freq_hz: s.freq_hz,
+                })
+                .collect(),
+            temperature_coefficient: spec.temperature_coefficient,
+        }
+    }
+
+    /// The model Allan variance of everything random or deterministic in the channel except the
+    /// temperature drift (whose AV depends on the realised temperature).
+    pub fn avar(&self, tau: f64) -> f64 {
+        self.coefficients.avar(tau)
+            + self.gauss_markov.iter().map(|g| g.avar(tau)).sum::<f64>()
+            + self.sinusoids.iter().map(|s| s.avar(tau)).sum::<f64>()
+    }
+}
+
+/// Independent random streams per component, so that adding a sinusoid or a second channel
+/// leaves every other component's samples unchanged.
+#[derive(Clone, Copy)]
+enum Component {
+    White = 1,
+    RandomWalk,
+    Flicker,
+    Quantisation,
+    GaussMarkov = 100,
+}
+
+fn rng_for(channel_seed: u64, component: Component, index: usize) -> Rng {
+    Rng::stream(channel_seed, component as u64 + index as u64)
+}
+
+/// Samples of `spec` (SI units), `n` at `rate_hz`; `drift_temperature` is T(t) − T₀ when the
+/// channel has a temperature coefficient.
+pub fn simulate_channel(
+    spec: &ChannelSpec,
+    n: usize,
+    rate_hz: f64,
+    channel_seed: u64,
+    drift_temperature: Option<&[f64]>,
+) -> Vec<f64> {
+    let c = &spec.noise;
+    let mut y = if c.b > 0.0 {
+        flicker(n, rate_hz, c.b, &mut rng_for(channel_seed, Component::Flicker, 0))
+    } else {
+        vec![0.0; n]
+    };
+    for v in &mut y {
+        *v += spec.bias;
+    }
+    if c.n > 0.0 {
+        add_white(&mut y, rate_hz, c.n, &mut rng_for(channel_seed, Component::White, 0));
+    }
+    if c.k > 0.0 {
+        let mut rng = rng_for(channel_seed, Component::RandomWalk, 0);
+        add_random_walk(&mut y, rate_hz, c.k, &mut rng);
+    }
+    if c.r != 0.0 {
+        add_ramp(&mut y, rate_hz, c.r);
+    }
+    for (i, gm) in spec.gauss_markov.iter().enumerate() {
+        let mut rng = rng_for(channel_seed, Component::GaussMarkov, i);
+        add_gauss_markov(&mut y, rate_hz, gm, &mut rng);
+    }
+    for s in &spec.sinusoids {
+        add_sinusoid(&mut y, rate_hz, s);
+    }
+    if let Some(dt) = drift_temperature {
+        if spec.temperature_coefficient != 0.0 {
+            for (v, t) in y.iter_mut().zip(dt) {
+                *v += spec.temperature_coefficient * t;
+            }
+        }
+    }
+    if c.q > 0.0 {
+        let start = rng_for(channel_seed, Component::Quantisation, 0).uniform();
+        quantize(&mut y, rate_hz, c.q, start);
+    }
+    y
+}

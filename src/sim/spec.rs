@@ -1,0 +1,201 @@
+//! The simulation specification: plain serde values (SI units), as read from a JSON file by
+//! `imunoise simulate` or written in a test.
+
+use serde::{Deserialize, Serialize};
+
+use crate::model::{Coefficients, GaussMarkov, Sensor};
+
+use super::SimError;
+
+/// What to simulate: a static IMU recording of `channels` at `rate_hz` for `duration_s`,
+/// reproducible from `seed`.
+///
+/// ```
+/// let spec: imunoise::sim::SimSpec = serde_json::from_str(r#"{
+///     "rate_hz": 100.0, "duration_s": 60.0, "seed": 7,
+///     "channels": [{ "name": "gx", "sensor": "gyro", "noise": { "n": 1e-3, "b": 1e-5 } }]
+/// }"#).unwrap();
+/// assert_eq!(spec.samples(), 6000);
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimSpec {
+    pub rate_hz: f64,
+    /// Recording length, s; the sample count is ⌊duration·rate⌋.
+    pub duration_s: f64,
+    #[serde(default)]
+    pub seed: u64,
+    pub channels: Vec<ChannelSpec>,
+    /// A simulated temperature channel (emitted as an extra channel) that drives the channels'
+    /// `temperature_coefficient` drift.
+    #[serde(default)]
+    pub temperature: Option<TemperatureSpec>,
+}
+
+/// One inertial channel: the sum of a constant bias, the IEEE noise terms, Gauss–Markov processes,
+/// sinusoids and a temperature drift, then (if Q > 0) angle quantisation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChannelSpec {
+    pub name: String,
+    pub sensor: Sensor,
+    /// Constant bias (rad/s or m/s²).
+    #[serde(default)]
+    pub bias: f64,
+    /// IEEE coefficients in SI: q (rad, m/s), n (rad/√s, m/s/√s), b (rad/s, m/s²), k (rad/s/√s,
+    /// m/s²/√s), r (rad/s², m/s³).
+    #[serde(default)]
+    pub noise: Coefficients,
+    #[serde(default)]
+    pub gauss_markov: Vec<GaussMarkov>,
+    #[serde(default)]
+    pub sinusoids: Vec<SinusoidSpec>,
+    /// Rate drift per °C of temperature rise above the start (rad/s/°C or m/s²/°C).
+    #[serde(default)]
+    pub temperature_coefficient: f64,
+}
+
+/// A sinusoidal rate A·sin(2πf₀t + φ).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SinusoidSpec {
+    /// Amplitude A (rad/s or m/s²).
+    pub amplitude: f64,
+    pub freq_hz: f64,
+    #[serde(default)]
+    pub phase_rad: f64,
+}
+
+/// The sensor temperature: a first-order warm-up from `start_degc` by `rise_degc` with time
+/// constant `warmup_s`, plus a slow Gauss–Markov wander; the recorded channel adds white
+/// measurement noise.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TemperatureSpec {
+    #[serde(default = "TemperatureSpec::default_name")]
+    pub name: String,
+    pub start_degc: f64,
+    pub rise_degc: f64,
+    pub warmup_s: f64,
+    /// Wander of the true temperature (σ in °C, correlation time in s).
+    #[serde(default)]
+    pub wander: Option<GaussMarkov>,
+    /// Standard deviation of the white measurement noise of the recorded channel, °C.
+    #[serde(default)]
+    pub noise_degc: f64,
+}
+
+impl TemperatureSpec {
+    fn default_name() -> String {
+        "temperature".into()
+    }
+}
+
+impl SimSpec {
+    /// Number of samples per channel.
+    pub fn samples(&self) -> usize {
+        (self.duration_s * self.rate_hz).floor() as usize
+    }
+
+    /// Checks every value before any sample is made.
+    pub fn validate(&self) -> Result<(), SimError> {
+        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0) {
+            return Err(SimError::InvalidRate(self.rate_hz));
+        }
+        if !(self.duration_s.is_finite() && self.duration_s * self.rate_hz >= 2.0) {
+            return Err(SimError::InvalidDuration {
+                duration_s: self.duration_s,
+                rate_hz: self.rate_hz,
+            });
+        }
+        if self.channels.is_empty() {
+            return Err(SimError::NoChannels);
+        }
+        let mut names: Vec<&str> = self.channels.iter().map(|c| c.name.as_str()).collect();
+        if let Some(t) = &self.temperature {
+            names.push(&t.name);
+        }
+        names.sort_unstable();
+        if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+            return Err(SimError::DuplicateName(w[0].to_string()));
+        }
+        let nyquist_hz = self.rate_hz / 2.0;
+        for ch in &self.channels {
+            let bad = |field: &'static str, value: f64| SimError::InvalidParameter {
+                channel: ch.name.clone(),
+                field,
+                value,
+            };
+            let non_negative = |field, v: f64| {
+                if v.is_finite() && v >= 0.0 {
+                    Ok(())
+                } else {
+                    Err(bad(field, v))
+                }
+            };
+            let finite = |field, v: f64| if v.is_finite() { Ok(()) } else { Err(bad(field, v)) };
+            let c = &ch.noise;
+            non_negative("noise.q", c.q)?;
+            non_negative("noise.n", c.n)?;
+            non_negative("noise.b", c.b)?;
+            non_negative("noise.k", c.k)?;
+            // A ramp may fall as well as rise.
+            finite("noise.r", c.r)?;
+            finite("bias", ch.bias)?;
+            finite("temperature_coefficient", ch.temperature_coefficient)?;
+            for gm in &ch.gauss_markov {
+                non_negative("gauss_markov.sigma", gm.sigma)?;
+                if !(gm.tc_s.is_finite() && gm.tc_s > 0.0) {
+                    return Err(bad("gauss_markov.tc_s", gm.tc_s));
+                }
+            }
+            for s in &ch.sinusoids {
+                finite("sinusoids.amplitude", s.amplitude)?;
+                finite("sinusoids.phase_rad", s.phase_rad)?;
+                non_negative("sinusoids.freq_hz", s.freq_hz)?;
+                if s.freq_hz >= nyquist_hz {
+                    return Err(SimError::AboveNyquist {
+                        channel: ch.name.clone(),
+                        freq_hz: s.freq_hz,
+                        nyquist_hz,
+                    });
+                }
+            }
+            if ch.temperature_coefficient != 0.0 && self.temperature.is_none() {
+                return Err(SimError::NoTemperature {
+                    channel: ch.name.clone(),
+                });
+            }
+        }
+        if let Some(t) = &self.temperature {
+            let bad = |field: &'static str, value: f64| SimError::InvalidParameter {
+                channel: t.name.clone(),
+                field,
+                value,
+            };
+            for (field, v) in [
+                ("start_degc", t.start_degc),
+                ("rise_degc", t.rise_degc),
+            ] {
+                if !v.is_finite() {
+                    return Err(bad(field, v));
+                }
+            }
+            if !(t.warmup_s.is_finite() && t.warmup_s > 0.0) {
+                return Err(bad("warmup_s", t.warmup_s));
+            }
+            if !(t.noise_degc.is_finite() && t.noise_degc >= 0.0) {
+                return Err(bad("noise_degc", t.noise_degc));
+            }
+            if let Some(gm) = &t.wander {
+                if !(gm.sigma.is_finite() && gm.sigma >= 0.0) {
+                    return Err(bad("wander.sigma", gm.sigma));
+                }
+                if !(gm.tc_s.is_finite() && gm.tc_s > 0.0) {
+                    return Err(bad("wander.tc_s", gm.tc_s));
+                }
+            }
+        }
+        Ok(())
+    }
+}
