@@ -96,6 +96,10 @@ pub struct FileResult {
     pub avar: Option<Vec<ChannelDeviations>>,
     pub timings: Timings,
     pub footprint: Footprint,
+    /// Which backend computed the estimates, and any job that ran elsewhere (e.g. on the CPU after
+    /// the GPU could not do it), in the backend's words.
+    pub backend: String,
+    pub backend_notes: Vec<String>,
 }
 
 /// Progress reports, in rows read; the CLI shows them as a bar on a terminal.
@@ -116,6 +120,8 @@ pub fn run(
     backend: &dyn Backend,
     progress: &dyn Progress,
 ) -> Result<FileResult, Error> {
+    // Notes left by an earlier recording that failed half-way are not this recording's.
+    let _ = backend.take_notes();
     let recording = io::open(path, &inputs.open)?;
     progress.start(path);
     let n_channels = recording.channels.len();
@@ -199,6 +205,8 @@ pub fn run(
         avar,
         timings,
         footprint,
+        backend: backend.describe(),
+        backend_notes: backend.take_notes(),
     })
 }
 

@@ -143,27 +143,65 @@ mod scratch_timing {
 
     #[test]
     #[ignore]
-    fn phases() {
-        for &n in &[1_000_000usize, 10_000_000] {
-            let mut s = 1u64;
-            let mut walk = 0.0;
-            let y: Vec<f64> = (0..n).map(|_| { s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407); let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5; walk += 1e-3 * u; u + walk }).collect();
+    fn phases_log() {
+        let n = 10_000_000usize;
+        let mut s = 1u64;
+        let mut walk = 0.0;
+        let y: Vec<f64> = (0..n)
+            .map(|_| {
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                walk += 1e-3 * u;
+                u + walk
+            })
+            .collect();
+        let max = Statistic::Oadev.max_factor(n) as f64;
+        let mut pts = 100;
+        let ms = loop {
+            let mut v: Vec<u64> = (0..pts)
+                .map(|i| max.powf(i as f64 / (pts - 1) as f64).round() as u64)
+                .collect();
+            v.dedup();
+            if v.len() >= 100 {
+                v.truncate(99);
+                v.push(max as u64);
+                break v;
+            }
+            pts += 1;
+        };
+        for grid in [TauGrid::Octave, TauGrid::Explicit(ms.clone())] {
+            let ms = grid.factors(n, Statistic::Oadev);
             for _ in 0..3 {
                 let t = Instant::now();
                 let ps = PrefixSums::new(&y).unwrap();
                 let t_prefix = t.elapsed();
-                let ms = TauGrid::Octave.factors(n, Statistic::Oadev);
                 let t = Instant::now();
                 let var = variances(&ps, &ms, Statistic::Oadev);
                 let t_var = t.elapsed();
                 let t = Instant::now();
-                let alphas: Vec<i8> = ms.par_iter().map(|&m| identify(&ps, m, Statistic::Oadev).alpha).collect();
+                let alphas: Vec<i8> = ms
+                    .par_iter()
+                    .map(|&m| identify(&ps, m, Statistic::Oadev).alpha)
+                    .collect();
                 let t_id = t.elapsed();
                 let t = Instant::now();
-                let b: Vec<(f64, f64)> = ms.iter().zip(&alphas).zip(&var).map(|((&m, &a), &v)| { let e = edf(Statistic::Oadev, a, m, n); variance_bounds(v, e, 0.68) }).collect();
+                let b: Vec<(f64, f64)> = ms
+                    .iter()
+                    .zip(&alphas)
+                    .zip(&var)
+                    .map(|((&m, &a), &v)| {
+                        let e = edf(Statistic::Oadev, a, m, n);
+                        variance_bounds(v, e, 0.68)
+                    })
+                    .collect();
                 let t_edf = t.elapsed();
-                eprintln!("n={n}: prefix {t_prefix:?} variances {t_var:?} noise-id {t_id:?} edf+bounds {t_edf:?} {:?}", &alphas);
-                std::hint::black_box(b);
+                let t = Instant::now();
+                let d = compute(&y, 1.0, &grid, Statistic::Oadev, Confidence::OneSigma).unwrap();
+                let t_all = t.elapsed();
+                eprintln!("{} taus: prefix {t_prefix:?} variances {t_var:?} noise-id {t_id:?} edf+bounds {t_edf:?} | compute {t_all:?}", ms.len());
+                std::hint::black_box((b, d));
             }
         }
     }

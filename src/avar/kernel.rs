@@ -10,12 +10,17 @@
 //!   version (x86-64, chosen at run time) and the portable one perform exactly these IEEE
 //!   operations in this order, so results are bit-identical on every CPU, and a τ gives the same
 //!   bits whether it is computed alone or in a chain.
-//! - The differences are formed as (S₂ − S₁) − (S₁ − S₀): neighbouring values of S are close, so
-//!   each inner difference is exact (Sterbenz) and the only rounding is that of the small result,
-//!   whereas S₂ − 2S₁ + S₀ would round at the magnitude of S.
+//! - The second difference is formed from first differences d_c = S_{j+2^c·m} − S_j as
+//!   v = d_{c+1} − 2·d_c (one fused multiply-add, exactly rounded once since 2·d_c is exact): the
+//!   values of S are close to each other, so each d_c is exact or nearly so (Sterbenz) and the
+//!   rounding is that of the small results, whereas S₂ − 2S₁ + S₀ would round at the magnitude of
+//!   S. The square is accumulated with a fused multiply-add too: three floating-point operations
+//!   per term, which is what bounds the short taus (their data sit in L1/L2).
 //!
 //! LLVM's auto-vectoriser handles the one-τ loop but not the chain (it falls back to shuffles and
-//! 128-bit operations), hence the explicit intrinsics.
+//! 128-bit operations), hence the explicit intrinsics. The portable version uses `f64::mul_add`,
+//! the same correctly rounded operation (a hardware instruction on aarch64; on an x86-64 without
+//! AVX2 and FMA, a slow library call, but such CPUs predate 2013).
 
 /// Accumulator lanes per τ.
 const LANES: usize = 8;
@@ -24,7 +29,7 @@ pub(crate) const MAX_CHAIN: usize = 4;
 
 /// Σ v² for a chain of taus over `len` start indices, where `streams[0]` is S from the first start
 /// index j₀ and `streams[c]` is S from j₀ + 2^(c−1)·m, so τ number c (= 2^c·m) has
-/// v = (streams[c+2] − streams[c+1]) − (streams[c+1] − streams[0]). Returns one sum per τ in
+/// v = (streams[c+2] − streams[0]) − 2·(streams[c+1] − streams[0]). Returns one sum per τ in
 /// `out[..streams.len() − 2]`.
 ///
 /// # Panics
@@ -50,9 +55,9 @@ pub(crate) fn chain_second(len: usize, streams: &[&[f64]], out: &mut [f64]) {
 pub(crate) fn third(len: usize, streams: &[&[f64]]) -> f64 {
     assert!(streams.len() == 4 && streams.iter().all(|s| s.len() >= len));
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: AVX2 is available (checked above) and every stream holds at least `len` values
-        // (asserted above), which is all the function reads.
+    if has_avx2_fma() {
+        // SAFETY: AVX2 and FMA are available (checked above) and every stream holds at least
+        // `len` values (asserted above), which is all the function reads.
         return unsafe { avx2::third(len, streams) };
     }
     third_portable(len, streams)
@@ -60,12 +65,17 @@ pub(crate) fn third(len: usize, streams: &[&[f64]]) -> f64 {
 
 fn dispatch_second<const T: usize>(len: usize, streams: &[&[f64]]) -> [f64; T] {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: AVX2 is available (checked above); `chain_second` asserted that there are
-        // T + 2 streams of at least `len` values, which is all the function reads.
+    if has_avx2_fma() {
+        // SAFETY: AVX2 and FMA are available (checked above); `chain_second` asserted that there
+        // are T + 2 streams of at least `len` values, which is all the function reads.
         return unsafe { avx2::second::<T>(len, streams) };
     }
     second_portable::<T>(len, streams)
+}
+
+#[cfg(target_arch = "x86_64")]
+fn has_avx2_fma() -> bool {
+    std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
 }
 
 /// Lane sums added in lane order, then the tail.
@@ -78,12 +88,15 @@ fn second_portable<const T: usize>(len: usize, streams: &[&[f64]]) -> [f64; T] {
     let full = len - len % LANES;
     for i in (0..full).step_by(LANES) {
         let base = &streams[0][i..i + LANES];
+        let near = &streams[1][i..i + LANES];
+        let mut d: [f64; LANES] = std::array::from_fn(|l| near[l] - base[l]);
         for (c, lanes) in acc.iter_mut().enumerate() {
-            let near = &streams[c + 1][i..i + LANES];
             let far = &streams[c + 2][i..i + LANES];
             for l in 0..LANES {
-                let v = (far[l] - near[l]) - (near[l] - base[l]);
-                lanes[l] += v * v;
+                let next = far[l] - base[l];
+                let v = (-2.0f64).mul_add(d[l], next);
+                lanes[l] = v.mul_add(v, lanes[l]);
+                d[l] = next;
             }
         }
     }
@@ -98,8 +111,8 @@ fn tail_second(from: usize, len: usize, streams: &[&[f64]], c: usize) -> f64 {
     let mut tail = 0.0f64;
     for k in from..len {
         let (b, n, f) = (streams[0][k], streams[c + 1][k], streams[c + 2][k]);
-        let v = (f - n) - (n - b);
-        tail += v * v;
+        let v = (-2.0f64).mul_add(n - b, f - b);
+        tail = v.mul_add(v, tail);
     }
     tail
 }
@@ -110,7 +123,7 @@ fn third_portable(len: usize, streams: &[&[f64]]) -> f64 {
     for i in (0..full).step_by(LANES) {
         for (l, lane) in acc.iter_mut().enumerate() {
             let v = third_term(streams, i + l);
-            *lane += v * v;
+            *lane = v.mul_add(v, *lane);
         }
     }
     finish(&acc, tail_third(full, len, streams))
@@ -127,7 +140,7 @@ fn tail_third(from: usize, len: usize, streams: &[&[f64]]) -> f64 {
     let mut tail = 0.0f64;
     for k in from..len {
         let v = third_term(streams, k);
-        tail += v * v;
+        tail = v.mul_add(v, tail);
     }
     tail
 }
@@ -135,18 +148,19 @@ fn tail_third(from: usize, len: usize, streams: &[&[f64]]) -> f64 {
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     //! The same arithmetic as the portable loops, four lanes per 256-bit register, two registers
-    //! per τ (lanes 0–3 and 4–7).
+    //! per τ (lanes 0–3 and 4–7); `_mm256_fmadd_pd` is `f64::mul_add` lane by lane.
 
     use core::arch::x86_64::{
-        __m256d, _mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_setzero_pd,
+        __m256d, _mm256_fmadd_pd, _mm256_loadu_pd, _mm256_set1_pd, _mm256_setzero_pd,
         _mm256_storeu_pd, _mm256_sub_pd,
     };
 
     use super::{finish, tail_second, tail_third, LANES, MAX_CHAIN};
 
     /// # Safety
-    /// The CPU must support AVX2; `streams` must hold T + 2 slices of at least `len` values.
-    #[target_feature(enable = "avx2")]
+    /// The CPU must support AVX2 and FMA; `streams` must hold T + 2 slices of at least `len`
+    /// values.
+    #[target_feature(enable = "avx2,fma")]
     pub(super) unsafe fn second<const T: usize>(len: usize, streams: &[&[f64]]) -> [f64; T] {
         let mut ptr = [std::ptr::null::<f64>(); MAX_CHAIN + 2];
         for (p, s) in ptr.iter_mut().zip(streams) {
@@ -154,23 +168,24 @@ mod avx2 {
         }
         let mut lo = [_mm256_setzero_pd(); T];
         let mut hi = [_mm256_setzero_pd(); T];
+        let minus_two = _mm256_set1_pd(-2.0);
         let full = len - len % LANES;
         let mut i = 0;
         while i < full {
             // SAFETY (all loads): i + 8 ≤ full ≤ len and every stream holds ≥ len values.
             let b0 = _mm256_loadu_pd(ptr[0].add(i));
             let b1 = _mm256_loadu_pd(ptr[0].add(i + 4));
-            let mut n0 = _mm256_loadu_pd(ptr[1].add(i));
-            let mut n1 = _mm256_loadu_pd(ptr[1].add(i + 4));
+            let mut d0 = _mm256_sub_pd(_mm256_loadu_pd(ptr[1].add(i)), b0);
+            let mut d1 = _mm256_sub_pd(_mm256_loadu_pd(ptr[1].add(i + 4)), b1);
             for c in 0..T {
-                let f0 = _mm256_loadu_pd(ptr[c + 2].add(i));
-                let f1 = _mm256_loadu_pd(ptr[c + 2].add(i + 4));
-                let v0 = _mm256_sub_pd(_mm256_sub_pd(f0, n0), _mm256_sub_pd(n0, b0));
-                let v1 = _mm256_sub_pd(_mm256_sub_pd(f1, n1), _mm256_sub_pd(n1, b1));
-                lo[c] = _mm256_add_pd(lo[c], _mm256_mul_pd(v0, v0));
-                hi[c] = _mm256_add_pd(hi[c], _mm256_mul_pd(v1, v1));
-                n0 = f0;
-                n1 = f1;
+                let e0 = _mm256_sub_pd(_mm256_loadu_pd(ptr[c + 2].add(i)), b0);
+                let e1 = _mm256_sub_pd(_mm256_loadu_pd(ptr[c + 2].add(i + 4)), b1);
+                let v0 = _mm256_fmadd_pd(minus_two, d0, e0);
+                let v1 = _mm256_fmadd_pd(minus_two, d1, e1);
+                lo[c] = _mm256_fmadd_pd(v0, v0, lo[c]);
+                hi[c] = _mm256_fmadd_pd(v1, v1, hi[c]);
+                d0 = e0;
+                d1 = e1;
             }
             i += LANES;
         }
@@ -182,8 +197,8 @@ mod avx2 {
     }
 
     /// # Safety
-    /// The CPU must support AVX2; `streams` must hold 4 slices of at least `len` values.
-    #[target_feature(enable = "avx2")]
+    /// The CPU must support AVX2 and FMA; `streams` must hold 4 slices of at least `len` values.
+    #[target_feature(enable = "avx2,fma")]
     pub(super) unsafe fn third(len: usize, streams: &[&[f64]]) -> f64 {
         let p = [
             streams[0].as_ptr(),
@@ -208,14 +223,14 @@ mod avx2 {
                     _mm256_sub_pd(s3, s2),
                 );
                 let v = _mm256_sub_pd(_mm256_sub_pd(f2, f1), _mm256_sub_pd(f1, f0));
-                *acc = _mm256_add_pd(*acc, _mm256_mul_pd(v, v));
+                *acc = _mm256_fmadd_pd(v, v, *acc);
             }
             i += LANES;
         }
         finish(&lanes(lo, hi), tail_third(full, len, streams))
     }
 
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     unsafe fn lanes(lo: __m256d, hi: __m256d) -> [f64; LANES] {
         let mut out = [0.0f64; LANES];
         // SAFETY: `out` has room for 8 values.
@@ -284,7 +299,10 @@ mod tests {
                 assert_eq!(one[0].to_bits(), chained[c].to_bits());
             }
             let st3 = [&s[..], &s[m..], &s[2 * m..], &s[3 * m..]];
-            assert_eq!(third(len, &st3).to_bits(), third_portable(len, &st3).to_bits());
+            assert_eq!(
+                third(len, &st3).to_bits(),
+                third_portable(len, &st3).to_bits()
+            );
         }
     }
 }

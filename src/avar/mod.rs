@@ -56,6 +56,6 @@ pub use confidence::{chi2_quantile, variance_bounds, Confidence, ONE_SIGMA};
 pub use deviations::Deviations;
 pub use error::AvarError;
 pub use noise_id::{identify_noise, NoiseEstimate, NoiseIdMethod};
-pub use prefix::PrefixSums;
+pub use prefix::{release_cached_memory, PrefixSums};
 pub use statistic::Statistic;
 pub use tau::TauGrid;

@@ -18,18 +18,18 @@
 //!   the reference files, and does not agree everywhere (see the integration tests for counts).
 //!
 //! Cost is bounded so that identification never dominates a long run: the autocorrelation uses at
-//! most 2¹⁸ τ-averages (the central part of the recording; r₁ is then known to ±0.002, far finer
-//! than the 0.25 spacing of the decision), and the B1 ratio samples the τ-averages every ⌈m/64⌉
-//! samples (they change little over that distance when there are fewer than 30 per record).
+//! most 2¹⁶ τ-averages (the central part of the recording; r₁ is then known to ±0.004, far finer
+//! than the 0.25 spacing of the decision), and the B1 and R(n) ratios evaluate their terms every
+//! ⌈m/64⌉ start indices (with fewer than 30 τ-averages per record the terms change little over
+//! that distance), the modified Allan terms from window sums of S in O(1) each.
 
-use super::mdev::modified_sums;
-use super::prefix::PrefixSums;
+use super::prefix::{two_sum, PrefixSums};
 use super::{AvarError, Statistic};
 
 /// Fewest τ-averages for which the autocorrelation method is used (Stable32's threshold).
 pub const ACF_MIN_POINTS: usize = 30;
 /// Most τ-averages the autocorrelation method uses.
-pub const ACF_MAX_POINTS: usize = 1 << 18;
+pub const ACF_MAX_POINTS: usize = 1 << 16;
 /// Samples per τ at which the B1 ratio evaluates τ-averages.
 const B1_SAMPLES_PER_TAU: usize = 64;
 
@@ -162,15 +162,7 @@ fn by_b1(ps: &PrefixSums, m: usize) -> NoiseEstimate {
         .map(|a| (a - mean) * (a - mean))
         .sum::<f64>()
         / averages.len() as f64;
-    // Overlapping Allan variance on the same grid.
-    let diffs: Vec<f64> = (0..=n - 2 * m)
-        .step_by(step)
-        .map(|j| {
-            let v = (s[j + 2 * m] - s[j + m]) - (s[j + m] - s[j]);
-            v * v
-        })
-        .collect();
-    let avar = diffs.iter().sum::<f64>() / (diffs.len() as f64 * 2.0 * mf * mf);
+    let avar = sampled_avar(s, m, step);
     if !(avar > 0.0) {
         return NoiseEstimate {
             alpha: 0,
@@ -189,10 +181,14 @@ fn by_b1(ps: &PrefixSums, m: usize) -> NoiseEstimate {
     // needs 3m samples; beyond that (overlapping Allan goes to N/2) it is taken at the largest
     // factor that has one, with the boundary for that factor.
     let mr = m.min((n + 1) / 3).max(1);
+    let step_r = mr.div_ceil(B1_SAMPLES_PER_TAU);
+    let avar_r = if mr == m {
+        avar
+    } else {
+        sampled_avar(s, mr, step_r)
+    };
+    let rn = sampled_mvar(ps, mr, step_r) / avar_r;
     let mrf = mr as f64;
-    let terms = (n + 2 - 3 * mr) as f64;
-    let mvar = modified_sums(s, &[mr as u64])[0] / (2.0 * mrf.powi(4) * terms);
-    let rn = mvar / if mr == m { avar } else { oavar_exact(s, mr) };
     let flicker = 3.37 / (1.04 + 3.0 * (std::f64::consts::PI * mrf).ln());
     let white = 1.0 / mrf;
     NoiseEstimate {
@@ -201,17 +197,39 @@ fn by_b1(ps: &PrefixSums, m: usize) -> NoiseEstimate {
     }
 }
 
-/// Overlapping Allan variance at factor m, every term.
-fn oavar_exact(s: &[f64], m: usize) -> f64 {
+/// Overlapping Allan variance at factor m from the terms at every `step`-th start index.
+fn sampled_avar(s: &[f64], m: usize, step: usize) -> f64 {
     let n = s.len() - 1;
-    let terms = n + 1 - 2 * m;
-    let sum: f64 = (0..terms)
-        .map(|j| {
+    let (sum, count) = (0..=n - 2 * m)
+        .step_by(step)
+        .fold((0.0f64, 0usize), |(acc, c), j| {
             let v = (s[j + 2 * m] - s[j + m]) - (s[j + m] - s[j]);
-            v * v
-        })
-        .sum();
-    sum / (2.0 * (m * m) as f64 * terms as f64)
+            (acc + v * v, c + 1)
+        });
+    sum / (count as f64 * 2.0 * (m * m) as f64)
+}
+
+/// Modified Allan variance at factor m from the terms at every `step`-th start index. Each term
+/// V_j = Σ_{i<m} D_{j+i} is a combination of window sums of S,
+/// V_j = (T_{j+3m} − T_{j+2m}) − 2(T_{j+2m} − T_{j+m}) + (T_{j+m} − T_j) with T the cumulative
+/// sum of S, which the prefix sums give in O(1) (double-double, so the differences keep their
+/// digits): the cost does not grow with N.
+fn sampled_mvar(ps: &PrefixSums, m: usize, step: usize) -> f64 {
+    let n = ps.len();
+    let window = |a: usize| {
+        let (h0, l0) = ps.cumulative_s(a);
+        let (h1, l1) = ps.cumulative_s(a + m);
+        let (d, e) = two_sum(h1, -h0);
+        d + (e + (l1 - l0))
+    };
+    let (sum, count) = (0..=n + 1 - 3 * m)
+        .step_by(step)
+        .fold((0.0f64, 0usize), |(acc, c), j| {
+            let (w0, w1, w2) = (window(j), window(j + m), window(j + 2 * m));
+            let v = (w2 - w1) - (w1 - w0);
+            (acc + v * v, c + 1)
+        });
+    sum / (count as f64 * 2.0 * (m as f64).powi(4))
 }
 
 /// The τ-exponent μ of the Allan variance (σ² ∝ τ^μ) whose expected B1 ratio is closest to the

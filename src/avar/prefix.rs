@@ -344,8 +344,17 @@ mod tests {
 
     #[test]
     fn cumulative_sums_of_s() {
-        for n in [1usize, 255, 4096, 4097, 3 * ANCHOR * LANES + 123, 4 * ANCHOR * LANES] {
-            let y: Vec<f64> = (0..n).map(|i| ((i * 7919 % 2003) as f64 - 1001.0) / 64.0).collect();
+        for n in [
+            1usize,
+            255,
+            4096,
+            4097,
+            3 * ANCHOR * LANES + 123,
+            4 * ANCHOR * LANES,
+        ] {
+            let y: Vec<f64> = (0..n)
+                .map(|i| ((i * 7919 % 2003) as f64 - 1001.0) / 64.0)
+                .collect();
             let ps = PrefixSums::new(&y).unwrap();
             let mut t = 0.0f64;
             for p in 0..=n + 1 {

@@ -232,16 +232,42 @@ mod scratch {
     fn sweep_speed() {
         let n = 10_000_000usize;
         let s: Vec<f64> = (0..=n).map(|i| (i as f64).sqrt()).collect();
-        let ms: Vec<u64> = (0..23).map(|k| 1u64 << k).collect();
-        for _ in 0..3 {
+        let max = ((n - 1) / 2) as f64;
+        let mut pts = 100;
+        let ms = loop {
+            let mut v: Vec<u64> = (0..pts)
+                .map(|i| max.powf(i as f64 / (pts - 1) as f64).round() as u64)
+                .collect();
+            v.dedup();
+            if v.len() >= 100 {
+                v.truncate(99);
+                v.push(max as u64);
+                break v;
+            }
+            pts += 1;
+        };
+        for _ in 0..2 {
             let t = Instant::now();
             let r = overlapping_sums(&s, &ms, Order::Second);
-            eprintln!("octave sweep {:?}", t.elapsed());
-            let small: Vec<u64> = ms.iter().cloned().filter(|&m| m < 4096).collect();
-            let t = Instant::now();
-            let r2 = overlapping_sums(&s, &small, Order::Second);
-            eprintln!("small sweep {:?} avx2={}", t.elapsed(), std::arch::is_x86_feature_detected!("avx2"));
-            std::hint::black_box((r, r2));
+            eprintln!("log100 sweep {:?}", t.elapsed());
+            for (lo, hi) in [(0u32, 12u32), (12, 16), (16, 19), (19, 21), (21, 23)] {
+                let set: Vec<u64> = ms
+                    .iter()
+                    .cloned()
+                    .filter(|&m| m >= 1 << lo && m < 1 << hi)
+                    .collect();
+                let t = Instant::now();
+                let r2 = overlapping_sums(&s, &set, Order::Second);
+                let terms: usize = set.iter().map(|&m| n + 1 - 2 * m as usize).sum();
+                eprintln!(
+                    "  [{lo},{hi}) {} taus {:?} {:.2} Gt/s",
+                    set.len(),
+                    t.elapsed(),
+                    terms as f64 / t.elapsed().as_secs_f64() / 1e9
+                );
+                std::hint::black_box(r2);
+            }
+            std::hint::black_box(r);
         }
     }
 }

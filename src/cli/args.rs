@@ -37,6 +37,8 @@ pub struct InfoArgs {
     pub input: InputArgs,
     #[command(flatten)]
     pub output: OutputArgs,
+    #[command(flatten)]
+    pub backend: BackendArgs,
 }
 
 #[derive(Debug, Args)]
@@ -47,6 +49,8 @@ pub struct PsdArgs {
     pub welch: WelchArgs,
     #[command(flatten)]
     pub output: OutputArgs,
+    #[command(flatten)]
+    pub backend: BackendArgs,
 }
 
 #[derive(Debug, Args)]
@@ -57,6 +61,8 @@ pub struct AvarArgs {
     pub avar: AvarFlags,
     #[command(flatten)]
     pub output: OutputArgs,
+    #[command(flatten)]
+    pub backend: BackendArgs,
 }
 
 #[derive(Debug, Args)]
@@ -69,6 +75,8 @@ pub struct AnalyzeArgs {
     pub avar: AvarFlags,
     #[command(flatten)]
     pub output: OutputArgs,
+    #[command(flatten)]
+    pub backend: BackendArgs,
 }
 
 /// Which files and columns, and how to read them.
@@ -184,6 +192,18 @@ pub struct AvarFlags {
     /// Two-sided confidence of the intervals, in (0, 1); 1sigma = 0.6827.
     #[arg(long, default_value = "1sigma", value_name = "LEVEL")]
     pub confidence: String,
+}
+
+/// Which hardware computes the estimates.
+#[derive(Debug, Args)]
+#[command(next_help_heading = "Backend")]
+pub struct BackendArgs {
+    /// auto: a GPU when one is found (named on stderr and in the outputs), else the CPU; gpu: a GPU
+    /// or an error (exit 2); cpu: the CPU reference path. Options the GPU path lacks (median
+    /// averaging, non-power-of-two nfft, statistics other than oadev) run on the CPU and the outputs
+    /// say so; a GPU that fails mid-run is replaced by the CPU with a warning.
+    #[arg(long, default_value = "auto", value_name = "BACKEND")]
+    pub backend: String,
 }
 
 /// Where results go.

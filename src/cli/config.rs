@@ -11,7 +11,7 @@ use imunoise::report::Formats;
 use imunoise::units::{Kind, Unit};
 use serde_json::{json, Value};
 
-use super::args::{AvarFlags, Cli, Command, InputArgs, OutputArgs, WelchArgs};
+use super::args::{AvarFlags, BackendArgs, Cli, Command, InputArgs, OutputArgs, WelchArgs};
 
 /// A usage error: a flag that does not parse or makes no sense (exit code 2).
 #[derive(Debug, thiserror::Error)]
@@ -31,6 +31,25 @@ pub struct OutputConfig {
     pub quiet: bool,
 }
 
+/// The `--backend` asked for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BackendChoice {
+    Auto,
+    Gpu,
+    Cpu,
+}
+
+fn backend_choice(a: &BackendArgs) -> Result<BackendChoice, UsageError> {
+    match a.backend.trim() {
+        "auto" => Ok(BackendChoice::Auto),
+        "gpu" => Ok(BackendChoice::Gpu),
+        "cpu" => Ok(BackendChoice::Cpu),
+        other => Err(usage(format!(
+            "--backend {other:?}: expected auto, gpu or cpu"
+        ))),
+    }
+}
+
 /// A validated run.
 #[derive(Debug, Clone)]
 pub struct Job {
@@ -39,16 +58,20 @@ pub struct Job {
     pub inputs: Inputs,
     pub work: Work,
     pub output: OutputConfig,
+    pub backend: BackendChoice,
     /// The options as recorded in the output document.
     pub options: Value,
 }
 
 pub fn job(cli: Cli) -> Result<Job, UsageError> {
-    let (command, input, welch, avar, output) = match cli.command {
-        Command::Info(a) => ("info", a.input, None, None, a.output),
-        Command::Psd(a) => ("psd", a.input, Some(a.welch), None, a.output),
-        Command::Avar(a) => ("avar", a.input, None, Some(a.avar), a.output),
-        Command::Analyze(a) => ("analyze", a.input, Some(a.welch), Some(a.avar), a.output),
+    let (command, input, welch, avar, output, backend) = match cli.command {
+        Command::Info(a) => ("info", a.input, None, None, a.output, a.backend),
+        Command::Psd(a) => ("psd", a.input, Some(a.welch), None, a.output, a.backend),
+        Command::Avar(a) => ("avar", a.input, None, Some(a.avar), a.output, a.backend),
+        Command::Analyze(a) => {
+            let (w, v) = (Some(a.welch), Some(a.avar));
+            ("analyze", a.input, w, v, a.output, a.backend)
+        }
     };
     let mut options = serde_json::Map::new();
     let inputs = inputs(&input, &mut options)?;
@@ -60,6 +83,7 @@ pub fn job(cli: Cli) -> Result<Job, UsageError> {
         inputs,
         work: Work { welch, avar },
         output: output_config(&output)?,
+        backend: backend_choice(&backend)?,
         options: Value::Object(options),
     })
 }

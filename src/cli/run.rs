@@ -5,11 +5,12 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use imunoise::estimate::{Backend, CpuBackend};
+use imunoise::gpu::{GpuBackend, GpuError};
 use imunoise::pipeline::{self, FileResult, Progress};
 use imunoise::report::{self, OutputError};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::config::Job;
+use super::config::{BackendChoice, Job};
 
 /// Exit codes (as ripgrep): all fine, some inputs failed, usage or fatal error.
 pub const EXIT_OK: i32 = 0;
@@ -106,10 +107,51 @@ fn summary_line(r: &FileResult) -> String {
     )
 }
 
+/// The backend asked for. `info` estimates nothing, so it never opens a GPU.
+fn backend(job: &Job) -> Result<Box<dyn Backend>, GpuError> {
+    let estimates = job.work.welch.is_some() || job.work.avar.is_some();
+    match job.backend {
+        BackendChoice::Cpu => Ok(Box::new(CpuBackend)),
+        _ if !estimates => Ok(Box::new(CpuBackend)),
+        BackendChoice::Gpu => Ok(Box::new(GpuBackend::new()?)),
+        BackendChoice::Auto => match GpuBackend::new() {
+            // A software rasteriser (lavapipe/llvmpipe) is slower than the CPU path: auto means
+            // "a real GPU if there is one"; --backend gpu still takes it.
+            Ok(gpu) if gpu.context().adapter_info().device_type == wgpu::DeviceType::Cpu => {
+                if !job.output.quiet {
+                    eprintln!(
+                        "imunoise: only a software GPU ({}); computing on the CPU (--backend gpu forces it)",
+                        gpu.context().adapter_info().name
+                    );
+                }
+                Ok(Box::new(CpuBackend))
+            }
+            Ok(gpu) => Ok(Box::new(gpu)),
+            Err(e) => {
+                if !job.output.quiet {
+                    eprintln!("imunoise: no usable GPU ({e}); computing on the CPU");
+                }
+                Ok(Box::new(CpuBackend))
+            }
+        },
+    }
+}
+
 /// Runs the job; returns the process exit code.
 pub fn run(job: &Job) -> i32 {
     let started = Instant::now();
-    let backend = CpuBackend;
+    let backend = match backend(job) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("imunoise: --backend gpu: {e}");
+            return EXIT_FATAL;
+        }
+    };
+    let estimates = job.work.welch.is_some() || job.work.avar.is_some();
+    if !job.output.quiet && estimates && job.backend != BackendChoice::Cpu {
+        eprintln!("imunoise: backend {}", backend.describe());
+    }
+    let backend = backend.as_ref();
     let bar = Bar::new(job.files.len(), job.output.quiet);
     if !job.output.json_stdout {
         if let Err(e) = std::fs::create_dir_all(&job.output.dir) {
@@ -124,10 +166,13 @@ pub fn run(job: &Job) -> i32 {
     let mut entries = Vec::new();
     let mut failed = 0;
     for path in &job.files {
-        match pipeline::run(path, &job.inputs, &job.work, &backend, &bar) {
+        match pipeline::run(path, &job.inputs, &job.work, backend, &bar) {
             Ok(r) => {
                 if !job.output.quiet {
                     bar.line(&summary_line(&r));
+                }
+                for note in &r.backend_notes {
+                    bar.line(&format!("note  {}: {note}", path.display()));
                 }
                 entries.push(report::file_json(&r));
                 ok.push(r);

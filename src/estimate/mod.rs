@@ -20,12 +20,14 @@ pub use cpu::CpuBackend;
 #[serde(rename_all = "snake_case")]
 pub enum BackendKind {
     Cpu,
+    Gpu,
 }
 
 impl fmt::Display for BackendKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
             BackendKind::Cpu => "cpu",
+            BackendKind::Gpu => "gpu",
         })
     }
 }
@@ -48,6 +50,11 @@ pub trait Backend: Send + Sync {
     fn describe(&self) -> String;
     /// Starts a streaming Welch estimate for `channels` channels sampled at `rate_hz`.
     fn welch(&self, plan: &WelchPlan, rate_hz: f64, channels: usize) -> Box<dyn WelchSink>;
+    /// Notes on work done since the last call that did not run where asked (a GPU job that ran on
+    /// the CPU, and why), so that outputs can say which numbers came from where.
+    fn take_notes(&self) -> Vec<String> {
+        Vec::new()
+    }
     /// One Allan-family statistic of each channel.
     fn deviations(
         &self,

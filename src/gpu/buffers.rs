@@ -26,15 +26,6 @@ impl Buf {
         })
     }
 
-    pub(crate) fn storage_dbg(ctx: &GpuContext, size: u64, name: &str) -> Result<Buf, GpuError> {
-        if std::env::var("DEBUGBUF").is_ok_and(|v| v.split(',').any(|x| x == name)) {
-            let size = size.max(4);
-            let b = ctx.device().create_buffer(&wgpu::BufferDescriptor { label: None, size, usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC, mapped_at_creation: false });
-            return Ok(Buf { lease: super::pool::Lease::unpooled(b), size });
-        }
-        Buf::storage(ctx, size)
-    }
-
     /// A storage buffer holding `data`.
     pub(crate) fn with_data<T: bytemuck::Pod>(
         ctx: &GpuContext,

@@ -25,11 +25,7 @@ struct Idle {
 /// A buffer on loan from the pool; returned when dropped.
 pub(crate) struct Lease {
     buffer: Option<wgpu::Buffer>,
-    pool: Option<Arc<Mutex<Idle>>>,
-}
-
-impl Lease {
-    pub(crate) fn unpooled(buffer: wgpu::Buffer) -> Lease { Lease { buffer: Some(buffer), pool: None } }
+    pool: Arc<Mutex<Idle>>,
 }
 
 impl BufferPool {
@@ -62,13 +58,13 @@ impl BufferPool {
             });
         }
         let mut idle = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
-        let found = if std::env::var("NOPOOL").is_ok_and(|v| (v == "uniform") == usage.contains(wgpu::BufferUsages::UNIFORM)) { None } else { idle
+        let found = idle
             .buffers
             .iter()
             .enumerate()
             .filter(|(_, b)| b.usage() == usage && b.size() >= size && b.size() <= 2 * size)
             .min_by_key(|(_, b)| b.size())
-            .map(|(i, _)| i) };
+            .map(|(i, _)| i);
         let buffer = match found {
             Some(i) => {
                 let b = idle.buffers.swap_remove(i);
@@ -91,7 +87,7 @@ impl BufferPool {
         };
         Ok(Lease {
             buffer: Some(buffer),
-            pool: Some(Arc::clone(&self.inner)),
+            pool: Arc::clone(&self.inner),
         })
     }
 }
@@ -109,8 +105,7 @@ impl Drop for Lease {
         let Some(buffer) = self.buffer.take() else {
             return;
         };
-        let Some(pool) = &self.pool else { return };
-        let mut idle = pool.lock().unwrap_or_else(PoisonError::into_inner);
+        let mut idle = self.pool.lock().unwrap_or_else(PoisonError::into_inner);
         idle.bytes += buffer.size();
         idle.buffers.push(buffer);
         while idle.bytes > idle.budget {

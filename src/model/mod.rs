@@ -1,8 +1,74 @@
-//! The IEEE noise model of inertial sensors and its fit to Allan variances and spectra.
+//! The IEEE noise model of inertial sensors (IEEE Std 952 Annex C, IEEE Std 1554) and its fit to
+//! Allan variances and to spectra.
+//!
+//! - [`Term`] and [`Coefficients`]: the five base terms (Q, N, B, K, R) with their Allan variance
+//!   and two-sided PSD per unit squared coefficient; [`GaussMarkov`] and [`Sinusoid`] for the
+//!   effects a residual analysis adds. All SI.
+//! - [`CoefUnit`]: every unit a datasheet writes coefficients in (°/√h, µg/√Hz, °/h, …), converted
+//!   in one place.
+//! - [`fit_avar`] and [`fit_psd`]: non-negative weighted least squares of the squared coefficients
+//!   (linear in both domains), weights from each point's EDF under the model, iterated; terms enter
+//!   only when the information criterion ([`Criterion`], BIC by default) says they earn their place
+//!   among all subsets of the allowed terms; every kept coefficient gets a confidence interval
+//!   (inverse Fisher information with Satterthwaite degrees of freedom), every absent one an upper
+//!   limit, and the fit a χ²/dof.
+//! - [`compare`]: spectrum-derived against AV-derived values, per term.
+//!
+//! ```
+//! use imunoise::avar::{compute, Confidence, Statistic, TauGrid};
+//! use imunoise::model::{compare, fit_avar, fit_psd, Coefficients, CoefUnit, FitOptions, Sensor, Term};
+//! use imunoise::psd::{log_bin, welch, WelchConfig};
+//! use imunoise::sim::{simulate, ChannelSpec, SimSpec};
+//!
+//! let n = CoefUnit::DegPerSqrtH.to_si(0.5); // angle random walk 0.5 °/√h
+//! let spec = SimSpec {
+//!     rate_hz: 100.0,
+//!     duration_s: 2000.0,
+//!     seed: 3,
+//!     channels: vec![ChannelSpec {
+//!         name: "gz".into(),
+//!         sensor: Sensor::Gyro,
+//!         bias: 0.0,
+//!         noise: Coefficients { n, ..Default::default() },
+//!         gauss_markov: vec![],
+//!         sinusoids: vec![],
+//!         temperature_coefficient: 0.0,
+//!     }],
+//!     temperature: None,
+//! };
+//! let y = &imunoise::sim::simulate(&spec)?.channels[0].samples;
+//! let opts = FitOptions::default();
+//! let av = fit_avar(&compute(y, 100.0, &TauGrid::Octave, Statistic::Oadev, Confidence::OneSigma)?, &opts)?;
+//! let psd = welch(y, 100.0, &WelchConfig::new(8192))?;
+//! let sp = fit_psd(&psd, &log_bin(&psd, 10), &opts)?;
+//! let arw = av.get(Term::RandomWalk).unwrap();
+//! assert!(arw.covers(n));
+//! println!("N = {:.3} °/√h", CoefUnit::DegPerSqrtH.from_si(arw.value));
+//! for row in compare(&av, &sp) {
+//!     assert_eq!(row.overlap, Some(true));
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod avar_fit;
+mod compare;
+mod error;
+mod fit;
+mod interval;
 mod linalg;
 mod nnls;
+mod options;
+mod psd_fit;
+mod result;
+mod select;
 mod terms;
 mod units;
 
+pub use avar_fit::fit_avar;
+pub use compare::{compare, TermComparison};
+pub use error::FitError;
+pub use options::FitOptions;
+pub use psd_fit::fit_psd;
+pub use result::{Candidate, Criterion, Domain, FitPoint, NoiseFit, TermEstimate, UpperLimit};
 pub use terms::{Coefficients, GaussMarkov, Sinusoid, Term, FLICKER_PLATEAU};
 pub use units::{CoefUnit, Sensor, UnitError};

@@ -112,7 +112,10 @@ mod tests {
         let cols = vec![vec![1.0; 8], t.clone()];
         let b: Vec<f64> = t.iter().map(|x| 1.0 + 2.0 * x).collect();
         let x = nnls(&cols, &b);
-        assert!((x[0] - 1.0).abs() < 1e-12 && (x[1] - 2.0).abs() < 1e-12, "{x:?}");
+        assert!(
+            (x[0] - 1.0).abs() < 1e-12 && (x[1] - 2.0).abs() < 1e-12,
+            "{x:?}"
+        );
     }
 
     #[test]

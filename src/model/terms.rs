@@ -322,7 +322,8 @@ mod tests {
         }
         assert_eq!(c.as_array(), [1.0, 2.0, 3.0, 4.0, 5.0]);
         assert_eq!(Coefficients::from_array(c.as_array()), c);
-        let expected = 3.0 / 4.0 + 4.0 / 2.0 + 9.0 * FLICKER_PLATEAU + 16.0 * 2.0 / 3.0 + 25.0 * 2.0;
+        let expected =
+            3.0 / 4.0 + 4.0 / 2.0 + 9.0 * FLICKER_PLATEAU + 16.0 * 2.0 / 3.0 + 25.0 * 2.0;
         assert!((c.avar(2.0) - expected).abs() < 1e-12);
     }
 }

@@ -144,13 +144,24 @@ const TABLE: &[(CoefUnit, Sensor, Term, f64, &[&str])] = {
         ),
         (RadPerS, G, B, 1.0, &["rad/s"]),
         (DegPerS, G, B, DEG, &["deg/s", "°/s"]),
-        (DegPerH, G, B, DEG / HOUR, &["deg/h", "deg/hr", "°/h", "°/hr"]),
+        (
+            DegPerH,
+            G,
+            B,
+            DEG / HOUR,
+            &["deg/h", "deg/hr", "°/h", "°/hr"],
+        ),
         (
             RadPerSPerSqrtS,
             G,
             K,
             1.0,
-            &["rad/s/sqrt(s)", "rad/s/√s", "rad/s^2/sqrt(hz)", "rad/s²/√hz"],
+            &[
+                "rad/s/sqrt(s)",
+                "rad/s/√s",
+                "rad/s^2/sqrt(hz)",
+                "rad/s²/√hz",
+            ],
         ),
         (
             DegPerHPerSqrtH,
@@ -382,7 +393,10 @@ mod tests {
         for sensor in [Sensor::Gyro, Sensor::Accel] {
             for term in Term::ALL {
                 let si = CoefUnit::si(sensor, term);
-                assert_eq!((si.term(), si.sensor(), si.si_factor()), (term, sensor, 1.0));
+                assert_eq!(
+                    (si.term(), si.sensor(), si.si_factor()),
+                    (term, sensor, 1.0)
+                );
                 let (a, b) = CoefUnit::display_pair(sensor, term);
                 assert_eq!((a.term(), b.term()), (term, term));
             }
@@ -394,7 +408,10 @@ mod tests {
         use CoefUnit::*;
         // 1 °/√h = (π/180)/60 rad/√s; 1 (°/s)/√Hz = 60 °/√h.
         assert!(close(DegPerSqrtH.to_si(1.0), PI / 180.0 / 60.0));
-        assert!(close(DegPerSPerSqrtHz.convert(1.0, DegPerSqrtH).unwrap(), 60.0));
+        assert!(close(
+            DegPerSPerSqrtHz.convert(1.0, DegPerSqrtH).unwrap(),
+            60.0
+        ));
         // 1 °/h = 4.848 136 811e-6 rad/s.
         assert!(close(DegPerH.to_si(1.0), 4.848_136_811_095_36e-6));
         // 1 °/s = 3600 °/h.

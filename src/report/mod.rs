@@ -210,6 +210,8 @@ pub fn file_json(r: &FileResult) -> Value {
         "quality": r.quality,
         "timings": r.timings,
         "footprint": r.footprint,
+        "backend": r.backend,
+        "backend_notes": r.backend_notes,
     });
     if let Some(psd) = &r.psd {
         entry["psd"] = psd

@@ -3,7 +3,7 @@
 use crate::model::{Coefficients, GaussMarkov, Sinusoid};
 
 use super::flicker::flicker;
-use super::processes::{add_gauss_markov, add_random_walk, add_ramp, add_sinusoid, add_white};
+use super::processes::{add_gauss_markov, add_ramp, add_random_walk, add_sinusoid, add_white};
 use super::quantize::quantize;
 use super::rng::Rng;
 use super::spec::ChannelSpec;
@@ -72,7 +72,12 @@ pub fn simulate_channel(
 ) -> Vec<f64> {
     let c = &spec.noise;
     let mut y = if c.b > 0.0 {
-        flicker(n, rate_hz, c.b, &mut rng_for(channel_seed, Component::Flicker, 0))
+        flicker(
+            n,
+            rate_hz,
+            c.b,
+            &mut rng_for(channel_seed, Component::Flicker, 0),
+        )
     } else {
         vec![0.0; n]
     };
@@ -80,7 +85,12 @@ pub fn simulate_channel(
         *v += spec.bias;
     }
     if c.n > 0.0 {
-        add_white(&mut y, rate_hz, c.n, &mut rng_for(channel_seed, Component::White, 0));
+        add_white(
+            &mut y,
+            rate_hz,
+            c.n,
+            &mut rng_for(channel_seed, Component::White, 0),
+        );
     }
     if c.k > 0.0 {
         let mut rng = rng_for(channel_seed, Component::RandomWalk, 0);

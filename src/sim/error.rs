@@ -6,7 +6,9 @@
 pub enum SimError {
     #[error("sample rate must be finite and positive, got {0} Hz")]
     InvalidRate(f64),
-    #[error("duration must be finite and give at least 2 samples, got {duration_s} s at {rate_hz} Hz")]
+    #[error(
+        "duration must be finite and give at least 2 samples, got {duration_s} s at {rate_hz} Hz"
+    )]
     InvalidDuration { duration_s: f64, rate_hz: f64 },
     #[error("channel {channel:?}: {field} must be finite and non-negative, got {value}")]
     InvalidParameter {

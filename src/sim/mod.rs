@@ -234,7 +234,10 @@ mod tests {
         assert!(a.channels.iter().all(|c| c.samples.len() == 2000));
         let mut other = spec();
         other.seed = 12;
-        assert_ne!(simulate(&other).unwrap().channels[0].samples, a.channels[0].samples);
+        assert_ne!(
+            simulate(&other).unwrap().channels[0].samples,
+            a.channels[0].samples
+        );
     }
 
     #[test]
@@ -258,18 +261,27 @@ mod tests {
         bad.channels[0].noise.n = -1.0;
         assert!(matches!(
             simulate(&bad),
-            Err(SimError::InvalidParameter { field: "noise.n", .. })
+            Err(SimError::InvalidParameter {
+                field: "noise.n",
+                ..
+            })
         ));
         let mut bad = spec();
         bad.channels[0].sinusoids[0].freq_hz = 25.0;
         assert!(matches!(simulate(&bad), Err(SimError::AboveNyquist { .. })));
         let mut bad = spec();
         bad.temperature = None;
-        assert!(matches!(simulate(&bad), Err(SimError::NoTemperature { .. })));
+        assert!(matches!(
+            simulate(&bad),
+            Err(SimError::NoTemperature { .. })
+        ));
         let mut bad = spec();
         bad.channels[1].name = "temp".into();
         assert!(matches!(simulate(&bad), Err(SimError::DuplicateName(_))));
-        assert!(serde_json::from_str::<SimSpec>(r#"{"rate_hz":1,"duration_s":9,"channels":[],"bogus":1}"#).is_err());
+        assert!(serde_json::from_str::<SimSpec>(
+            r#"{"rate_hz":1,"duration_s":9,"channels":[],"bogus":1}"#
+        )
+        .is_err());
     }
 
     #[test]

@@ -100,7 +100,8 @@ mod tests {
         let var = y.iter().map(|v| v * v).sum::<f64>() / y.len() as f64;
         assert!((var / 0.09 - 1.0).abs() < 0.1, "{}", var / 0.09);
         let lag = 50; // one Tc
-        let c: f64 = y.windows(lag + 1).map(|w| w[0] * w[lag]).sum::<f64>() / (y.len() - lag) as f64;
+        let c: f64 =
+            y.windows(lag + 1).map(|w| w[0] * w[lag]).sum::<f64>() / (y.len() - lag) as f64;
         assert!((c / var - (-1.0f64).exp()).abs() < 0.06, "{}", c / var);
     }
 }

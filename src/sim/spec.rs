@@ -133,7 +133,13 @@ impl SimSpec {
                     Err(bad(field, v))
                 }
             };
-            let finite = |field, v: f64| if v.is_finite() { Ok(()) } else { Err(bad(field, v)) };
+            let finite = |field, v: f64| {
+                if v.is_finite() {
+                    Ok(())
+                } else {
+                    Err(bad(field, v))
+                }
+            };
             let c = &ch.noise;
             non_negative("noise.q", c.q)?;
             non_negative("noise.n", c.n)?;
@@ -173,10 +179,7 @@ impl SimSpec {
                 field,
                 value,
             };
-            for (field, v) in [
-                ("start_degc", t.start_degc),
-                ("rise_degc", t.rise_degc),
-            ] {
+            for (field, v) in [("start_degc", t.start_degc), ("rise_degc", t.rise_degc)] {
                 if !v.is_finite() {
                     return Err(bad(field, v));
                 }

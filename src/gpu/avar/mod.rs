@@ -307,11 +307,12 @@ fn group_variances(
             }
         }
     }
-    submit(ctx, &passes)?;
+    let in_flight = submit(ctx, &passes)?;
 
     // 4. Read back, add in f64.
     let sums32: Vec<f32> = read_buffer(ctx, partials32.buffer(), 0, slots32.next)?;
     let sums64: Vec<f64> = read_buffer(ctx, partials64.buffer(), 0, slots64.next)?;
+    drop(in_flight);
     let mut out: Vec<Vec<f64>> = ms.iter().map(|ms| vec![f64::NAN; ms.len()]).collect();
     for t in &tallies {
         let total: f64 = t
@@ -366,7 +367,7 @@ pub(crate) fn run_octave_level(
     let next_len = (p.next_off + p.count) as usize;
     let next = Buf::storage(ctx, next_len as u64 * 4)?;
     let partials = Buf::storage(ctx, (groups.max(1) * 4) as u64)?;
-    submit(
+    let in_flight = submit(
         ctx,
         &[Pass::Octave {
             params: *p,
@@ -378,6 +379,7 @@ pub(crate) fn run_octave_level(
     )?;
     let sums = read_buffer(ctx, partials.buffer(), 0, groups)?;
     let next = read_buffer(ctx, next.buffer(), 0, next_len)?;
+    drop(in_flight);
     Ok((sums, next))
 }
 
@@ -409,7 +411,7 @@ pub(crate) fn run_prefix(
         ),
     };
     let partials = Buf::storage(ctx, (groups.max(1) * elem) as u64)?;
-    submit(
+    let in_flight = submit(
         ctx,
         &[Pass::Prefix {
             kernel,
@@ -422,5 +424,7 @@ pub(crate) fn run_prefix(
             partials: View::whole(&partials),
         }],
     )?;
-    read_buffer(ctx, partials.buffer(), 0, groups * elem)
+    let out = read_buffer(ctx, partials.buffer(), 0, groups * elem);
+    drop(in_flight);
+    out
 }

@@ -69,10 +69,20 @@ impl Pass<'_> {
     }
 }
 
+/// Buffers a submission reads that its caller does not own (the parameter blocks): to be held
+/// until the results are read, so that the pool cannot hand them to another job before the
+/// device has used them.
+#[must_use = "hold until the submission's results are read"]
+pub(crate) struct InFlight {
+    _params: Vec<Buf>,
+}
+
 /// Records every pass in one compute pass and submits it.
-pub(crate) fn submit(ctx: &GpuContext, passes: &[Pass<'_>]) -> Result<(), GpuError> {
+pub(crate) fn submit(ctx: &GpuContext, passes: &[Pass<'_>]) -> Result<InFlight, GpuError> {
     if passes.is_empty() {
-        return Ok(());
+        return Ok(InFlight {
+            _params: Vec::new(),
+        });
     }
     // All parameter blocks in one uniform buffer, each at an aligned offset.
     let mut octave = Vec::new();
@@ -149,5 +159,8 @@ pub(crate) fn submit(ctx: &GpuContext, passes: &[Pass<'_>]) -> Result<(), GpuErr
         }
     }
     ctx.queue().submit([encoder.finish()]);
-    ctx.check()
+    ctx.check()?;
+    Ok(InFlight {
+        _params: vec![octave_buf, prefix_buf],
+    })
 }

@@ -36,6 +36,10 @@ pub(crate) struct WelchDevice {
     spectrum: Option<Buf>,
     /// The kernels of one batch, in order, with their bind groups.
     stages: Vec<(Kernel, wgpu::ComputePipeline, wgpu::BindGroup)>,
+    /// The twiddle table and window: written once and only reached through the bind groups, but
+    /// held (like every buffer here) for the job's lifetime, since a buffer back in the pool can be
+    /// handed to another job and overwritten while this one's batches still read it.
+    _resident: [Buf; 2],
 }
 
 impl WelchDevice {
@@ -51,15 +55,14 @@ impl WelchDevice {
         let slots = (cap.channels * cap.segments) as u64;
         let (half, bins) = (u64::from(template.half), u64::from(template.bins));
         let c = &*ctx;
-        let twd = twiddles(template.nfft as usize);
-        let tw = Buf::storage_dbg(c, std::mem::size_of_val(&twd[..]) as u64, "tw")?; tw.write(c, 0, &twd);
-        let window = { let b = Buf::storage_dbg(c, std::mem::size_of_val(window) as u64, "window")?; b.write(c, 0, window); b };
+        let tw = Buf::with_data(c, &twiddles(template.nfft as usize))?;
+        let window = Buf::with_data(c, window)?;
         let params = Buf::uniform::<WelchParams>(c)?;
         let acc_params = Buf::uniform::<AccumulateParams>(c)?;
-        let input = Buf::storage_dbg(c, (cap.channels * cap.stride) as u64 * 4, "input")?;
-        let refs = Buf::storage_dbg(c, cap.channels as u64 * 4, "refs")?;
-        let power = Buf::storage_dbg(c, slots * bins * 4, "power")?;
-        let acc = Buf::storage_dbg(c, cap.channels as u64 * bins * 4, "acc")?;
+        let input = Buf::storage(c, (cap.channels * cap.stride) as u64 * 4)?;
+        let refs = Buf::storage(c, cap.channels as u64 * 4)?;
+        let power = Buf::storage(c, slots * bins * 4)?;
+        let acc = Buf::storage(c, cap.channels as u64 * bins * 4)?;
         let (work, spectrum) = match algorithm {
             FftAlgorithm::Local => (None, None),
             FftAlgorithm::FourStep { .. } => (
@@ -139,6 +142,7 @@ impl WelchDevice {
             work,
             spectrum,
             stages,
+            _resident: [tw, window],
         })
     }
 

@@ -1,0 +1,47 @@
+//! Options of the noise-model fits.
+
+use crate::avar::Confidence;
+
+use super::{Criterion, Term};
+
+/// How to fit. [`FitOptions::default`] allows all five terms, uses BIC, 1σ intervals, the default
+/// spectrum band and correlated Allan points.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FitOptions {
+    /// Terms that may enter the model.
+    pub terms: Vec<Term>,
+    pub criterion: Criterion,
+    /// Two-sided probability of the coefficient intervals.
+    pub confidence: Confidence,
+    /// Spectrum fit: lowest band centre used, Hz. `None`: 4·fs/nperseg, above the bins that the
+    /// per-segment detrend and the window's leakage bias (with Hann and constant detrend bin 1
+    /// reads 1/6 low for white noise; steep spectra leak into bins 2–3).
+    pub min_freq_hz: Option<f64>,
+    /// Spectrum fit: highest band centre used, Hz. `None`: up to Nyquist (the Nyquist bin itself
+    /// is never used: one-sided spectra do not double it).
+    pub max_freq_hz: Option<f64>,
+    /// Allan fit: model the correlation between the variances at neighbouring τ (see
+    /// [`fit_avar`](super::fit_avar)). Off treats them as independent, which makes the intervals
+    /// too narrow.
+    pub correlated_points: bool,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            terms: Term::ALL.to_vec(),
+            criterion: Criterion::Bic,
+            confidence: Confidence::OneSigma,
+            min_freq_hz: None,
+            max_freq_hz: None,
+            correlated_points: true,
+        }
+    }
+}
+
+impl FitOptions {
+    /// Bit mask of the allowed terms.
+    pub(crate) fn mask(&self) -> u8 {
+        self.terms.iter().fold(0, |m, t| m | (1 << t.index()))
+    }
+}
