@@ -13,25 +13,17 @@ fn main() {
     let nperseg: usize = args.get(5).map_or(4096, |s| s.parse().unwrap());
     let fs: f64 = 100.0;
     let mut c = Coefficients::default();
-    if model.contains('n') {
-        c.n = 1e-3;
-    }
-    if model.contains('k') {
-        c.k = 1e-5;
-    }
-    if model.contains('b') {
-        c.b = 5e-5;
-    }
-    if model.contains('q') {
-        c.q = 1e-3 / fs.sqrt() / 3.0;
-    }
-    if model.contains('r') {
-        c.r = 2e-8;
+    for kv in model.split(',') {
+        let (k, v) = kv.split_once('=').unwrap();
+        let v: f64 = v.parse().unwrap();
+        match k { "q" => c.q = v, "n" => c.n = v, "b" => c.b = v, "k" => c.k = v, "r" => c.r = v, _ => panic!() }
     }
     let opts = FitOptions {
         correlated_points: corr,
+        confidence: if std::env::var("P95").is_ok() { Confidence::Level(0.95) } else { Confidence::OneSigma },
         ..Default::default()
     };
+    let mut overlaps = [0u32; 5];
     let mut stats: Vec<(&str, [u32; 5], [u32; 5], [f64; 5], [f64; 5], f64)> = vec![
         ("avar", [0; 5], [0; 5], [0.0; 5], [0.0; 5], 0.0),
         ("psd", [0; 5], [0; 5], [0.0; 5], [0.0; 5], 0.0),
@@ -62,24 +54,28 @@ fn main() {
             Confidence::OneSigma,
         )
         .unwrap();
+        let tf = std::time::Instant::now();
         let fa = fit_avar(&d, &opts).unwrap();
+        if t == 0 { println!("fit_avar {:?}", tf.elapsed()); }
         if t == std::env::var("SHOW").map_or(0, |s| s.parse().unwrap()) {
             print_fit(&fa);
             for (i, p) in fa.points.iter().enumerate() {
                 println!(
-                    "tau {:9.2} v {:.4e} truth {:.4e} model {:.4e} sd {:.3e} z {:6.2} edf {:.1}",
+                    "tau {:9.2} v {:.4e} truth {:.4e} model {:.4e} nu {:.1} z {:6.2} edf {:.1}",
                     p.x,
                     p.value,
                     c.avar(p.x),
                     p.model,
-                    p.sd,
-                    p.z(),
+                    p.edf,
+                    p.z,
                     d.edf[i]
                 );
             }
         }
         let psd = welch(&y, fs, &WelchConfig::new(nperseg)).unwrap();
+        let tf = std::time::Instant::now();
         let fp = fit_psd(&psd, &log_bin(&psd, 10), &opts).unwrap();
+        if t == 0 { println!("fit_psd {:?}", tf.elapsed()); }
         if std::env::var("TRACE").is_ok() {
             println!(
                 "trial {t}: av chi2/dof {:.2} terms {:?} | psd chi2/dof {:.2} terms {:?}",
@@ -95,6 +91,9 @@ fn main() {
                     .collect::<Vec<_>>()
             );
         }
+        for row in imunoise::model::compare(&fa, &fp) {
+            if row.overlap == Some(true) { overlaps[row.term.index()] += 1; }
+        }
         for (k, f) in [fa, fp].iter().enumerate() {
             let s = &mut stats[k];
             s.5 += f.chi2_per_dof();
@@ -106,6 +105,7 @@ fn main() {
                         s.2[j] += 1;
                     }
                     s.3[j] += e.value / c.get(term).max(1e-300);
+                    HW.with(|h| h.borrow_mut()[k][j] += (e.hi - e.lo) / 2.0 / e.value);
                     s.4[j] += (e.value / c.get(term).max(1e-300)).powi(2);
                 }
             }
@@ -121,11 +121,16 @@ fn main() {
             let k = s.1[j].max(1) as f64;
             let mean = s.3[j] / k;
             let sd = (s.4[j] / k - mean * mean).max(0.0).sqrt();
+            let hw = HW.with(|h| h.borrow()[if s.0 == "avar" { 0 } else { 1 }][j]) / k;
+            print!("  halfwidth {hw:.4}");
             println!("  {term}: selected {:4} / {trials}, covered {:4} ({:.3}), mean ratio {:.4} sd {:.4}", s.1[j], s.2[j], s.2[j] as f64 / k, mean, sd);
         }
     }
+    println!("overlaps {overlaps:?}");
     println!("{:.2} s", t0.elapsed().as_secs_f64());
 }
+
+thread_local! { static HW: std::cell::RefCell<[[f64; 5]; 2]> = const { std::cell::RefCell::new([[0.0; 5]; 2]) }; }
 
 fn print_fit(f: &NoiseFit) {
     println!(

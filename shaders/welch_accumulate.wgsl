@@ -1,5 +1,6 @@
 // Welch: sum |X_k|^2 over the segments of each channel in a batch and add the sums to the running
-// per-channel sums in `acc` (kept on the GPU between batches; the host reads them once per push).
+// per-channel sums in `acc` (kept on the GPU between batches; the host reads them, and restarts
+// them, at the end of each push and every 16 batches within one).
 // CPU mirror: welch_accumulate in src/gpu/mirror/welch.rs.
 //
 // Dispatch: (ceil(bins/WG), channels, 1); one thread per (bin, channel), reading one column of

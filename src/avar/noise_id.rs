@@ -18,7 +18,7 @@
 //!   the reference files, and does not agree everywhere (see the integration tests for counts).
 //!
 //! Cost is bounded so that identification never dominates a long run: the autocorrelation uses at
-//! most 2¹⁶ τ-averages (the central part of the recording; r₁ is then known to ±0.004, far finer
+//! most 2¹⁵ τ-averages (the central part of the recording; r₁ is then known to ±0.006, far finer
 //! than the 0.25 spacing of the decision), and the B1 and R(n) ratios evaluate their terms every
 //! ⌈m/64⌉ start indices (with fewer than 30 τ-averages per record the terms change little over
 //! that distance), the modified Allan terms from window sums of S in O(1) each.
@@ -29,7 +29,7 @@ use super::{AvarError, Statistic};
 /// Fewest τ-averages for which the autocorrelation method is used (Stable32's threshold).
 pub const ACF_MIN_POINTS: usize = 30;
 /// Most τ-averages the autocorrelation method uses.
-pub const ACF_MAX_POINTS: usize = 1 << 16;
+pub const ACF_MAX_POINTS: usize = 1 << 15;
 /// Samples per τ at which the B1 ratio evaluates τ-averages.
 const B1_SAMPLES_PER_TAU: usize = 64;
 

@@ -6,9 +6,10 @@
 //!
 //! - j runs in blocks of up to 32768; for each block every τ is evaluated while the block is hot.
 //!   For small m, S_{j+m} and S_{j+2m} fall in the same few hundred kilobytes as S_j and come from
-//!   L1/L2; for large m they come from their own windows.
-//! - Octave taus are evaluated in chains (m, 2m, 4m, 8m) by one kernel that loads each window once
-//!   (S_{j+2m} for m is S_{j+m'} for m' = 2m), see [`kernel`](super::kernel).
+//!   L1/L2; for large m they come from their own windows (the base window is shared by every τ).
+//! - Taus are evaluated four at a time by one kernel that loads S_j once for all of them; octave
+//!   taus in chains (m, 2m, 4m, 8m) that also load each window once (S_{j+2m} for m is S_{j+m'}
+//!   for m' = 2m), see [`kernel`](super::kernel).
 //! - Both cores work on neighbouring blocks (a round of eight at a time), so the windows one core
 //!   pulls into the shared L3 are still there when the other needs them.
 //! - Each block's partial sums are stored, then added in block order: the result does not depend
@@ -16,7 +17,7 @@
 
 use rayon::prelude::*;
 
-use super::kernel::{chain_second, third, MAX_CHAIN};
+use super::kernel::{group_second, third, Layout, MAX_GROUP};
 
 /// Taus evaluated per sweep (bounds the partial-sum table at blocks × taus).
 const TAU_GROUP: usize = 256;
@@ -41,28 +42,58 @@ impl Order {
     }
 }
 
-/// Block length of the sweep for N samples: long enough to amortise per-block work, short enough
-/// to give both cores several blocks. Depends on N only, so results do not depend on the thread
-/// count.
+/// Block length of the sweep for N samples: long enough to amortise per-block work and give the
+/// hardware prefetcher long streams, short enough to give both cores many blocks. Depends on N
+/// only, so results do not depend on the thread count.
 fn block_len(n: usize) -> usize {
     (n / 16).next_power_of_two().clamp(1024, 32768)
 }
 
-/// Splits sorted factors into doubling chains (m, 2m, 4m, … up to `MAX_CHAIN` long) for the
-/// second-difference kernel; indices into `ms`. Third differences are not chained.
-fn chains(ms: &[u64], order: Order) -> Vec<Vec<usize>> {
-    let mut out: Vec<Vec<usize>> = Vec::new();
+/// Taus evaluated by one kernel call: indices into the factor list, and how their streams are
+/// laid out.
+struct Group {
+    taus: Vec<usize>,
+    layout: Layout,
+}
+
+/// Groups sorted factors for the second-difference kernel: doubling chains (m, 2m, 4m, … up to
+/// `MAX_GROUP` long) first, then runs of the remaining consecutive factors (up to `MAX_GROUP`),
+/// which share only S_j. Third differences are done one τ at a time.
+fn groups(ms: &[u64], order: Order) -> Vec<Group> {
+    if order == Order::Third {
+        return (0..ms.len())
+            .map(|t| Group {
+                taus: vec![t],
+                layout: Layout::Chain,
+            })
+            .collect();
+    }
+    let mut chains: Vec<Vec<usize>> = Vec::new();
     for (i, &m) in ms.iter().enumerate() {
-        match out.last_mut() {
-            Some(chain)
-                if order == Order::Second
-                    && chain.len() < MAX_CHAIN
-                    && ms[*chain.last().unwrap()] * 2 == m =>
-            {
+        match chains.last_mut() {
+            Some(chain) if chain.len() < MAX_GROUP && ms[*chain.last().unwrap()] * 2 == m => {
                 chain.push(i)
             }
-            _ => out.push(vec![i]),
+            _ => chains.push(vec![i]),
         }
+    }
+    let mut out: Vec<Group> = Vec::new();
+    let mut singles: Vec<usize> = Vec::new();
+    for chain in chains {
+        if chain.len() > 1 {
+            out.push(Group {
+                taus: chain,
+                layout: Layout::Chain,
+            });
+        } else {
+            singles.extend(chain);
+        }
+    }
+    for run in singles.chunks(MAX_GROUP) {
+        out.push(Group {
+            taus: run.to_vec(),
+            layout: Layout::Pairs,
+        });
     }
     out
 }
@@ -79,13 +110,13 @@ pub(crate) fn overlapping_sums(s: &[f64], ms: &[u64], order: Order) -> Vec<f64> 
         let most = group.iter().map(|&m| terms(m)).max().unwrap_or(0);
         let blocks = most.div_ceil(b);
         let g = group.len();
-        let plan = chains(group, order);
+        let plan = groups(group, order);
         let mut partial = vec![0.0f64; blocks * g];
         for (r, table) in partial.chunks_mut(ROUND * g).enumerate() {
             table.par_chunks_mut(g).enumerate().for_each(|(k, row)| {
                 let j0 = (r * ROUND + k) * b;
-                for chain in &plan {
-                    block_chain(s, j0, b, group, chain, order, &terms, row);
+                for grp in &plan {
+                    range_group(s, j0, b, group, grp, order, &terms, row);
                 }
             });
         }
@@ -96,57 +127,75 @@ pub(crate) fn overlapping_sums(s: &[f64], ms: &[u64], order: Order) -> Vec<f64> 
     out
 }
 
-/// The terms of one chain of taus for start indices j0..j0 + b. Taus whose terms cover the whole
-/// block go through the chain kernel together; a τ whose last terms end inside the block is done
-/// alone (once per τ), so every τ sees the same lane layout and gives the same bits however the
-/// factors are grouped.
+/// Adds the terms of one group of taus for start indices a..a + len (cut at each τ's last term)
+/// to `row`. Taus whose terms cover the whole range go through the kernel together (they are a
+/// prefix of the group: later factors are longer and end earlier); a τ whose last terms end
+/// inside the range is done alone.
 #[allow(clippy::too_many_arguments)]
-fn block_chain(
+fn range_group(
     s: &[f64],
-    j0: usize,
-    b: usize,
+    a: usize,
+    len: usize,
     ms: &[u64],
-    chain: &[usize],
+    group: &Group,
     order: Order,
     terms: &impl Fn(u64) -> usize,
     row: &mut [f64],
 ) {
-    let full = chain
+    let taus = &group.taus;
+    let full = taus
         .iter()
-        .take_while(|&&t| terms(ms[t]) >= j0 + b)
+        .take_while(|&&t| terms(ms[t]) >= a + len)
         .count();
     if full > 0 {
-        let m = ms[chain[0]] as usize;
-        let mut streams: [&[f64]; MAX_CHAIN + 2] = [&[]; MAX_CHAIN + 2];
-        streams[0] = &s[j0..];
-        for (c, slot) in streams[1..full + 2].iter_mut().enumerate() {
-            *slot = &s[j0 + (m << c)..];
-        }
         match order {
             Order::Second => {
-                let mut sums = [0.0f64; MAX_CHAIN];
-                chain_second(b, &streams[..full + 2], &mut sums);
-                for (c, &t) in chain[..full].iter().enumerate() {
-                    row[t] = sums[c];
+                let mut streams: [&[f64]; 2 * MAX_GROUP + 1] = [&[]; 2 * MAX_GROUP + 1];
+                streams[0] = &s[a..];
+                let count = group.layout.streams(full);
+                match group.layout {
+                    Layout::Chain => {
+                        let m = ms[taus[0]] as usize;
+                        for (c, slot) in streams[1..count].iter_mut().enumerate() {
+                            *slot = &s[a + (m << c)..];
+                        }
+                    }
+                    Layout::Pairs => {
+                        for (c, &t) in taus[..full].iter().enumerate() {
+                            let m = ms[t] as usize;
+                            streams[2 * c + 1] = &s[a + m..];
+                            streams[2 * c + 2] = &s[a + 2 * m..];
+                        }
+                    }
+                }
+                let mut sums = [0.0f64; MAX_GROUP];
+                group_second(len, full, group.layout, &streams[..count], &mut sums);
+                for (c, &t) in taus[..full].iter().enumerate() {
+                    row[t] += sums[c];
                 }
             }
-            Order::Third => row[chain[0]] = third_block(s, j0, b, m),
+            Order::Third => {
+                for &t in &taus[..full] {
+                    row[t] += third_block(s, a, len, ms[t] as usize);
+                }
+            }
         }
     }
-    for &t in &chain[full..] {
+    for &t in &taus[full..] {
         let end = terms(ms[t]);
-        if end <= j0 {
+        if end <= a {
             continue;
         }
         let m = ms[t] as usize;
-        let len = end - j0;
-        row[t] = match order {
+        let part = end - a;
+        row[t] += match order {
             Order::Second => {
                 let mut one = [0.0f64; 1];
-                chain_second(len, &[&s[j0..], &s[j0 + m..], &s[j0 + 2 * m..]], &mut one);
+                let streams = [&s[a..], &s[a + m..], &s[a + 2 * m..]];
+                group_second(part, 1, Layout::Chain, &streams, &mut one);
                 one[0]
             }
-            Order::Third => third_block(s, j0, len, m),
+            Order::Third => third_block(s, a, part, m),
         };
     }
 }
@@ -234,40 +283,23 @@ mod scratch {
         let s: Vec<f64> = (0..=n).map(|i| (i as f64).sqrt()).collect();
         let max = ((n - 1) / 2) as f64;
         let mut pts = 100;
-        let ms = loop {
-            let mut v: Vec<u64> = (0..pts)
-                .map(|i| max.powf(i as f64 / (pts - 1) as f64).round() as u64)
-                .collect();
-            v.dedup();
-            if v.len() >= 100 {
-                v.truncate(99);
-                v.push(max as u64);
-                break v;
-            }
-            pts += 1;
-        };
-        for _ in 0..2 {
+        let ms = loop { let mut v: Vec<u64> = (0..pts).map(|i| max.powf(i as f64 / (pts - 1) as f64).round() as u64).collect(); v.dedup(); if v.len() >= 100 { v.truncate(99); v.push(max as u64); break v; } pts += 1; };
+        let oct: Vec<u64> = (0..23).map(|k| 1u64 << k).collect();
+        let mut best = [f64::MAX; 7];
+        for _ in 0..6 {
             let t = Instant::now();
-            let r = overlapping_sums(&s, &ms, Order::Second);
-            eprintln!("log100 sweep {:?}", t.elapsed());
-            for (lo, hi) in [(0u32, 12u32), (12, 16), (16, 19), (19, 21), (21, 23)] {
-                let set: Vec<u64> = ms
-                    .iter()
-                    .cloned()
-                    .filter(|&m| m >= 1 << lo && m < 1 << hi)
-                    .collect();
+            std::hint::black_box(overlapping_sums(&s, &oct, Order::Second));
+            best[6] = best[6].min(t.elapsed().as_secs_f64());
+            let t = Instant::now();
+            std::hint::black_box(overlapping_sums(&s, &ms, Order::Second));
+            best[5] = best[5].min(t.elapsed().as_secs_f64());
+            for (i, (lo, hi)) in [(0u32, 12u32), (12, 16), (16, 19), (19, 21), (21, 23)].into_iter().enumerate() {
+                let set: Vec<u64> = ms.iter().cloned().filter(|&m| m >= 1 << lo && m < 1 << hi).collect();
                 let t = Instant::now();
-                let r2 = overlapping_sums(&s, &set, Order::Second);
-                let terms: usize = set.iter().map(|&m| n + 1 - 2 * m as usize).sum();
-                eprintln!(
-                    "  [{lo},{hi}) {} taus {:?} {:.2} Gt/s",
-                    set.len(),
-                    t.elapsed(),
-                    terms as f64 / t.elapsed().as_secs_f64() / 1e9
-                );
-                std::hint::black_box(r2);
+                std::hint::black_box(overlapping_sums(&s, &set, Order::Second));
+                best[i] = best[i].min(t.elapsed().as_secs_f64());
             }
-            std::hint::black_box(r);
         }
+        eprintln!("best ms: small {:.1} [12,16) {:.1} [16,19) {:.1} [19,21) {:.1} [21,23) {:.1} | log100 {:.1} | octave {:.1}", best[0]*1e3, best[1]*1e3, best[2]*1e3, best[3]*1e3, best[4]*1e3, best[5]*1e3, best[6]*1e3);
     }
 }

@@ -57,13 +57,21 @@ impl GpuBackend {
 
 impl Backend for GpuBackend {
     fn kind(&self) -> BackendKind {
-        // `BackendKind` has no GPU variant yet; this becomes `BackendKind::Gpu` when it does.
-        BackendKind::Cpu
+        BackendKind::Gpu
     }
 
     /// "gpu: <adapter name> (<backend>, <device type>, <driver>)".
     fn describe(&self) -> String {
         format!("gpu: {}", self.ctx.describe())
+    }
+
+    /// The fallbacks recorded since the last call, as "task: reason" lines.
+    fn take_notes(&self) -> Vec<String> {
+        self.log
+            .take_new()
+            .iter()
+            .map(ToString::to_string)
+            .collect()
     }
 
     fn welch(&self, plan: &WelchPlan, rate_hz: f64, channels: usize) -> Box<dyn WelchSink> {

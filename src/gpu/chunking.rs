@@ -121,12 +121,12 @@ pub fn welch_batch(shape: &WelchShape, caps: &Caps) -> Result<usize, GpuError> {
     if work_per > caps.binding {
         return Err(too_large("one FFT work array of every channel", work_per));
     }
+    // How many `per` fit in `budget` after `first` (unbounded when nothing grows).
     let fit = |budget: u64, first: u64, per: u64| {
-        if per == 0 {
-            u64::MAX
-        } else {
-            budget.saturating_sub(first) / per
-        }
+        budget
+            .saturating_sub(first)
+            .checked_div(per)
+            .unwrap_or(u64::MAX)
     };
     let mut b = u64::from(caps.max_groups);
     if multipass {

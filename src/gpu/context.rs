@@ -4,12 +4,12 @@
 //! Getting a device ([`request_adapter`], [`request_device`]) is separate from the work, so a caller
 //! (or a test) can open the device it wants — another adapter, smaller limits — and hand it in with
 //! [`GpuContext::from_device`]. Limits come from the adapter itself (`adapter.limits()`), not from
-//! wgpu's conservative defaults: a 128 MiB storage binding instead of the default's, for example,
-//! means fewer chunks.
+//! wgpu's portable defaults: a discrete GPU typically binds gigabytes where the defaults allow
+//! 128 MiB, and every doubling halves the number of chunks.
 //!
 //! Failure model: wgpu reports validation errors, out-of-memory and device loss asynchronously,
 //! through callbacks. The context installs both callbacks and keeps the first failure; every
-//! synchronisation point ([`GpuContext::wait`], read-backs) checks it. A failure poisons the context
+//! synchronisation point (waits and read-backs) checks it. A failure poisons the context
 //! for good: with several jobs sharing one device, an error cannot be pinned on one of them, so every
 //! job that sees it redoes its work on the CPU rather than risk returning a number computed after it.
 
@@ -35,8 +35,9 @@ pub struct ContextOptions {
     /// Backends to look for adapters on; `None` means `WGPU_BACKEND` if set, else all compiled in
     /// (Vulkan, Metal, DX12).
     pub backends: Option<wgpu::Backends>,
-    /// Most bytes of device buffers one job allocates at a time; larger inputs are processed in
-    /// more, smaller batches. Chunking for the device's binding limits happens regardless.
+    /// Most bytes of device buffers one job allocates at a time (larger inputs are processed in
+    /// more, smaller batches; chunking for the device's binding limits happens regardless), and
+    /// the most bytes of idle buffers the context keeps for reuse.
     pub memory_budget: u64,
 }
 
@@ -320,9 +321,13 @@ impl GpuContext {
 
     /// A buffer of at least `size` bytes with `usage`, from the pool when one is free.
     pub(crate) fn buffer(&self, usage: wgpu::BufferUsages, size: u64) -> Result<Lease, GpuError> {
-        let lease = self
-            .pool
-            .acquire(&self.device, usage, size, self.limits.max_buffer_size)?;
+        let lease = self.pool.acquire(
+            &self.device,
+            &self.queue,
+            usage,
+            size,
+            self.limits.max_buffer_size,
+        )?;
         self.check()?;
         Ok(lease)
     }

@@ -69,31 +69,40 @@ impl fmt::Display for Fallback {
 /// long after they were made (a device lost in the middle of a stream).
 #[derive(Debug, Default)]
 pub struct FallbackLog {
-    entries: Mutex<Vec<Fallback>>,
+    entries: Mutex<Log>,
+}
+
+#[derive(Debug, Default)]
+struct Log {
+    all: Vec<Fallback>,
+    /// How many of `all` [`FallbackLog::take_new`] has handed out.
+    taken: usize,
 }
 
 impl FallbackLog {
+    fn lock(&self) -> std::sync::MutexGuard<'_, Log> {
+        self.entries.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
     pub fn record(&self, task: Task, reason: FallbackReason) {
-        self.entries
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .push(Fallback { task, reason });
+        self.lock().all.push(Fallback { task, reason });
     }
 
     /// All fallbacks so far.
     pub fn entries(&self) -> Vec<Fallback> {
-        self.entries
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .clone()
+        self.lock().all.clone()
     }
 
     /// The most recent fallback.
     pub fn last(&self) -> Option<Fallback> {
-        self.entries
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .last()
-            .cloned()
+        self.lock().all.last().cloned()
+    }
+
+    /// The fallbacks recorded since the previous call (for per-recording notes).
+    pub fn take_new(&self) -> Vec<Fallback> {
+        let mut log = self.lock();
+        let new = log.all[log.taken..].to_vec();
+        log.taken = log.all.len();
+        new
     }
 }

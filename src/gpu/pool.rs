@@ -5,6 +5,11 @@
 //! driver's zeroing. Sizes are rounded up to a power of two so that slightly different recordings
 //! share buffers, which is why every binding names its size explicitly instead of binding the whole
 //! buffer. Idle buffers beyond the budget are dropped, largest first.
+//!
+//! A buffer must stay leased for as long as any submitted or future work of its job reads it;
+//! handing it back early lets the next job overwrite data still in use. Debug builds therefore
+//! fill every returned buffer with NaN, so that such a slip shows up in the tests as NaN results
+//! instead of as a rare wrong number under concurrency.
 
 use std::ops::Deref;
 use std::sync::{Arc, Mutex, PoisonError};
@@ -26,6 +31,8 @@ struct Idle {
 pub(crate) struct Lease {
     buffer: Option<wgpu::Buffer>,
     pool: Arc<Mutex<Idle>>,
+    #[cfg(debug_assertions)]
+    queue: wgpu::Queue,
 }
 
 impl BufferPool {
@@ -45,6 +52,7 @@ impl BufferPool {
     pub(crate) fn acquire(
         &self,
         device: &wgpu::Device,
+        #[cfg_attr(not(debug_assertions), allow(unused_variables))] queue: &wgpu::Queue,
         usage: wgpu::BufferUsages,
         size: u64,
         max_size: u64,
@@ -88,6 +96,8 @@ impl BufferPool {
         Ok(Lease {
             buffer: Some(buffer),
             pool: Arc::clone(&self.inner),
+            #[cfg(debug_assertions)]
+            queue: queue.clone(),
         })
     }
 }
@@ -105,6 +115,11 @@ impl Drop for Lease {
         let Some(buffer) = self.buffer.take() else {
             return;
         };
+        #[cfg(debug_assertions)]
+        if buffer.usage().contains(wgpu::BufferUsages::COPY_DST) {
+            let nan = vec![0xFF_u8; buffer.size() as usize];
+            self.queue.write_buffer(&buffer, 0, &nan);
+        }
         let mut idle = self.pool.lock().unwrap_or_else(PoisonError::into_inner);
         idle.bytes += buffer.size();
         idle.buffers.push(buffer);

@@ -4,7 +4,9 @@
 //! unit squared coefficient ([`Term::avar_unit`]). Variance of each point: 2μ²/ν with μ the model
 //! and ν Greenhall's EDF for the noise type of each term (recomputed from the model at every
 //! iteration, not the noise type identified on the data, which at the largest τ rests on a few
-//! averages and is unreliable).
+//! averages and is unreliable). The rate ramp is taken as deterministic (IEEE 952 describes it
+//! so): it raises σ²(τ) but adds no scatter, so points it dominates are weighted by the scatter of
+//! the noise under it.
 //!
 //! Correlation: overlapping Allan variances at neighbouring τ are computed from the same samples,
 //! and their errors are strongly correlated, the more so the redder the noise. Measured on 2000
@@ -16,7 +18,7 @@
 //! | quantisation (white PM) | 0.40 | 0.52 | 0.53 | 0.51 | 0.5, 0.5, 1.5 |
 //! | white (N) | 0.54 | 0.20 | 0.08 | 0.04 | 0, 1.46, 1.25 |
 //! | flicker (B) | 0.68 | 0.30 | 0.12 | 0.04 | 0, 1.87, 1.52 |
-//! | random walk (K; also used for R) | 0.89 | 0.67 | 0.49 | 0.35 | 0, 3.89, 1.55 |
+//! | random walk (K) | 0.89 | 0.67 | 0.49 | 0.35 | 0, 3.89, 1.55 |
 //!
 //! (Quantisation's floor: every τ's estimate is then mostly 3/τ² times the same sample variance of
 //! the angle error.) Ignoring the correlation would count each octave as independent evidence and
@@ -78,7 +80,12 @@ pub fn fit_avar(d: &Deviations, opts: &FitOptions) -> Result<NoiseFit, FitError>
             .iter()
             .map(|&i| {
                 std::array::from_fn(|j| {
-                    let e = edf(d.statistic, Term::ALL[j].alpha(), d.m[i], n_samples);
+                    let term = Term::ALL[j];
+                    if term == Term::RateRamp {
+                        // Deterministic: adds to σ²(τ) but no scatter of its own.
+                        return f64::INFINITY;
+                    }
+                    let e = edf(d.statistic, term.alpha(), d.m[i], n_samples);
                     if e.is_finite() && e > 0.0 {
                         e
                     } else {
@@ -87,11 +94,9 @@ pub fn fit_avar(d: &Deviations, opts: &FitOptions) -> Result<NoiseFit, FitError>
                 })
             })
             .collect(),
-        corr: opts.correlated_points.then(|| Correlation {
-            position: keep.iter().map(|&i| (d.m[i] as f64).log2()).collect(),
-            floor: CORRELATION.map(|c| c.0),
-            length: CORRELATION.map(|c| c.1),
-            power: CORRELATION.map(|c| c.2),
+        corr: opts.correlated_points.then(|| {
+            let position: Vec<f64> = keep.iter().map(|&i| (d.m[i] as f64).log2()).collect();
+            Correlation::per_term(&position, CORRELATION)
         }),
     };
     select_and_fit(&problem, &tau, opts.mask(), opts, Domain::Allan)

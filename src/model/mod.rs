@@ -50,7 +50,9 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod alias;
 mod avar_fit;
+mod band_correlation;
 mod compare;
 mod error;
 mod fit;

@@ -2,11 +2,14 @@
 //!
 //! Points: the bands of a [`BinnedPsd`] between the lowest usable frequency and the top. Welch
 //! output is one-sided (every bin but DC and Nyquist doubled), the model two-sided, so each band
-//! value is halved: S = S₁/2. Basis: each term's two-sided PSD averaged over the very bins the
-//! band averaged (not evaluated at the band centre, which for 1/f² and 1/f³ in wide bands would be
+//! value is halved: S = S₁/2. Basis: each term's two-sided PSD as sampled data have it
+//! ([`Term::psd_sampled_unit`]: the IEEE form averaged over the sample interval and folded at
+//! Nyquist, which matters for B and K near Nyquist; quantisation's (4Q²/τ₀)·sin²(πfτ₀) is already
+//! that of a sampled angle and is what identifies Q there), averaged over the very bins the band
+//! averaged (not evaluated at the band centre, which for 1/f² and 1/f³ in wide bands would be
 //! biased). Variance of each point: 2μ²/ν with the band's EDF, which accounts for the window,
-//! overlap and the correlation between neighbouring bins; bands do not share bins, so they are
-//! treated as independent.
+//! overlap and the correlation between the bins of a band; the correlation between neighbouring
+//! bands (large where bands are single bins) is modelled too (`band_correlation.rs`).
 //!
 //! Lowest bins: excluded below 4·fs/nperseg by default. The per-segment detrend removes power
 //! there (with Hann and constant detrend bin 1 reads 1/6 low for white noise; more for steep
@@ -20,7 +23,8 @@
 
 use crate::psd::{BinnedPsd, Psd, Scaling};
 
-use super::fit::{Problem, TERMS};
+use super::band_correlation::band_correlation;
+use super::fit::{Correlation, Problem, TERMS};
 use super::result::Domain;
 use super::select::select_and_fit;
 use super::{FitError, FitOptions, NoiseFit, Term};
@@ -62,7 +66,6 @@ pub fn fit_psd(psd: &Psd, binned: &BinnedPsd, opts: &FitOptions) -> Result<Noise
         Some(f) => f,
         None => f64::INFINITY,
     };
-    let tau0 = 1.0 / psd.rate_hz;
     let df = psd.bin_width_hz();
     let keep: Vec<usize> = (0..binned.freq_hz.len())
         .filter(|&b| {
@@ -82,7 +85,7 @@ pub fn fit_psd(psd: &Psd, binned: &BinnedPsd, opts: &FitOptions) -> Result<Noise
             std::array::from_fn(|j| {
                 let term = Term::ALL[j];
                 (0..bins)
-                    .map(|i| term.psd_unit(first + f64::from(i) * df, tau0))
+                    .map(|i| term.psd_sampled_unit(first + f64::from(i) * df, psd.rate_hz))
                     .sum::<f64>()
                     / f64::from(bins)
             })
@@ -92,7 +95,7 @@ pub fn fit_psd(psd: &Psd, binned: &BinnedPsd, opts: &FitOptions) -> Result<Noise
         value: keep.iter().map(|&b| binned.value[b] / 2.0).collect(),
         basis,
         edf: keep.iter().map(|&b| [binned.dof[b]; TERMS]).collect(),
-        corr: None,
+        corr: band_correlation(psd, binned, &keep).and_then(Correlation::fixed),
     };
     let x: Vec<f64> = keep.iter().map(|&b| binned.freq_hz[b]).collect();
     select_and_fit(&problem, &x, opts.mask(), opts, Domain::Spectrum)

@@ -75,8 +75,9 @@ pub struct UpperLimit {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Candidate {
     pub terms: Vec<Term>,
-    /// Generalised χ² with the common weights used for the comparison.
+    /// χ² of its normalised residuals (see [`FitPoint::z`]).
     pub chi2: f64,
+    /// −2·log-likelihood plus the criterion's penalty; lower is better.
     pub score: f64,
     /// False when the non-negative fit set one of the subset's coefficients to zero: the subset
     /// then duplicates a smaller one and is not eligible.
@@ -92,15 +93,12 @@ pub struct FitPoint {
     pub value: f64,
     /// Model value.
     pub model: f64,
-    /// Standard deviation of the measurement under the model, √(2/ν)·model.
-    pub sd: f64,
-}
-
-impl FitPoint {
-    /// Normalised residual (value − model)/sd.
-    pub fn z(&self) -> f64 {
-        (self.value - self.model) / self.sd
-    }
+    /// Degrees of freedom of the measurement under the model (value·ν/model ~ χ²_ν).
+    pub edf: f64,
+    /// Normalised residual on the Wilson–Hilferty scale,
+    /// ((value/model)^(1/3) − 1 + 2/(9ν))/√(2/(9ν)): standard normal when the model is right, even
+    /// for the few-EDF points at long τ where (value − model)/σ is far from it.
+    pub z: f64,
 }
 
 /// A fit of the IEEE model in one domain.
@@ -111,7 +109,8 @@ pub struct NoiseFit {
     pub estimates: Vec<TermEstimate>,
     /// Terms that were allowed but not kept.
     pub upper_limits: Vec<UpperLimit>,
-    /// Generalised χ² of the final fit (correlation between points included).
+    /// χ² of the normalised residuals of the final fit, zᵀR⁻¹z with R the working correlation
+    /// between points (identity for spectra).
     pub chi2: f64,
     /// Points − kept terms.
     pub dof: usize,

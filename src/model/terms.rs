@@ -9,6 +9,8 @@
 
 use std::f64::consts::{LN_2, PI};
 
+use super::alias::sampled_power_law;
+
 /// One of the five base terms of the IEEE model, in order of increasing AV slope.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -121,6 +123,24 @@ impl Term {
             Term::BiasInstability => 1.0 / w,
             Term::RateRandomWalk => 1.0 / (w * w),
             Term::RateRamp => 1.0 / (w * w * w),
+        }
+    }
+}
+
+impl Term {
+    /// Two-sided PSD per unit squared coefficient of the *sampled* signal at 0 < f < fs/2, for a
+    /// sensor whose samples are mean rates over each sample interval (delta angle / τ₀): the
+    /// continuous spectrum through sinc²(πfτ₀) and folded at fs (see `alias.rs`). Equal to
+    /// [`Term::psd_unit`] for N and Q (Q's form already is that of a sampled angle), and within
+    /// 1 % of it below fs/10 for B, K, R; near Nyquist B reads ≈ 0.8× and K ≈ 0.7× the
+    /// continuous form. This is what a Welch spectrum of such data estimates, and the sampled
+    /// process has exactly the continuous Allan variance at every τ = mτ₀.
+    pub fn psd_sampled_unit(self, f: f64, rate_hz: f64) -> f64 {
+        match self {
+            Term::Quantization | Term::RandomWalk => self.psd_unit(f, 1.0 / rate_hz),
+            Term::BiasInstability => sampled_power_law(f, rate_hz, 1),
+            Term::RateRandomWalk => sampled_power_law(f, rate_hz, 2),
+            Term::RateRamp => sampled_power_law(f, rate_hz, 3),
         }
     }
 }

@@ -1,10 +1,12 @@
 //! Flicker (1/f) rate noise by spectral shaping: the bias-instability term.
 //!
-//! Independent complex Gaussian Fourier coefficients with E|X_k|² = L·fs·S(f_k) for
-//! S(f) = B²/(2πf), inverse real FFT of length L, first n samples kept. The spectrum is 1/f over
-//! the whole band, up to the Nyquist frequency, which a Kasdin–Walter fractional-difference filter
-//! does not give (its spectrum is 1/(2 sin πfτ₀), 57 % high at Nyquist) and which one Gauss–Markov
-//! process pretending to be flicker cannot give at all.
+//! Independent complex Gaussian Fourier coefficients with E|X_k|² = L·fs·S(f_k), inverse real FFT
+//! of length L, first n samples kept. S is B²/(2πf) as a sensor that outputs interval means sees
+//! it (through sinc² and folded at Nyquist): 1/f over the whole band, exactly what makes the Allan
+//! variance flat at (2 ln 2/π)·B² from τ₀ on (a plain 1/f up to Nyquist reads 19 % above the
+//! plateau at τ₀, 9 % at 2τ₀). A Kasdin–Walter fractional-difference filter gives 1/(2 sin πfτ₀)
+//! instead (57 % above 1/f at Nyquist), and one Gauss–Markov process pretending to be flicker is
+//! 1/f nowhere.
 //!
 //! The synthetic series is periodic with period L, and has no power below fs/L. L ≥ 4n (the next
 //! 2^a·3^b·5^c length, which FFTs fast) puts that cut at a quarter of 1/T: the flicker plateau of
@@ -12,10 +14,10 @@
 //! (2/π)B²·(πτf_min)²/2 of it), and the record never sees its own period. DC gets no power (the
 //! 1/f spectrum has none to give it a finite value).
 
-use std::f64::consts::PI;
-
 use realfft::num_complex::Complex;
 use realfft::RealFftPlanner;
+
+use crate::model::Term;
 
 use super::rng::Rng;
 
@@ -52,10 +54,17 @@ pub fn shaped_noise(n: usize, rate_hz: f64, psd: impl Fn(f64) -> f64, rng: &mut 
     out
 }
 
-/// Flicker rate noise with two-sided PSD b²/(2πf).
+/// Samples of the interval means of continuous flicker rate noise with two-sided PSD b²/(2πf):
+/// the spectrum shaped is the sampled-average one ([`Term::psd_sampled_unit`]), so that the
+/// Allan variance is the flicker plateau at every τ = mτ₀, m = 1 included.
 pub fn flicker(n: usize, rate_hz: f64, b: f64, rng: &mut Rng) -> Vec<f64> {
     let b2 = b * b;
-    shaped_noise(n, rate_hz, |f| b2 / (2.0 * PI * f), rng)
+    shaped_noise(
+        n,
+        rate_hz,
+        |f| b2 * Term::BiasInstability.psd_sampled_unit(f, rate_hz),
+        rng,
+    )
 }
 
 /// Smallest 2^a·3^b·5^c ≥ `n`.

@@ -1,5 +1,10 @@
 //! The rate processes other than flicker and quantisation, each added onto a channel in place.
-//! Discretised so that their Allan variance and PSD are those of [`crate::model`].
+//!
+//! Every sample is the mean of the continuous-time rate over its sample interval, as an IMU that
+//! outputs delta angles (or delta velocities) divided by τ₀ delivers, and each process is
+//! discretised exactly for that: the Allan variance of the samples is then the continuous-time
+//! IEEE form at every τ = mτ₀, m = 1 included, and their spectrum is the continuous one through
+//! sinc²(πfτ₀), folded at Nyquist ([`Term::psd_sampled_unit`](crate::model::Term::psd_sampled_unit)).
 
 use std::f64::consts::TAU;
 
@@ -8,7 +13,8 @@ use crate::model::GaussMarkov;
 use super::rng::Rng;
 use super::spec::SinusoidSpec;
 
-/// White rate noise with two-sided PSD n² (AV n²/τ): per-sample σ = n·√fs.
+/// White rate noise with two-sided PSD n² (AV n²/τ): interval means of white noise are white
+/// with σ = n·√fs.
 pub fn add_white(y: &mut [f64], rate_hz: f64, n: f64, rng: &mut Rng) {
     let sigma = n * rate_hz.sqrt();
     for v in y {
@@ -16,41 +22,64 @@ pub fn add_white(y: &mut [f64], rate_hz: f64, n: f64, rng: &mut Rng) {
     }
 }
 
-/// Rate random walk with AV k²τ/3: the rate takes a step of σ = k·√τ₀ every sample, starting from
-/// zero (the first sample already has one step). Its discrete AV is k²τ/3·(1 + 1/(2m²)).
+/// Rate random walk with AV k²τ/3 (continuous Brownian rate, from zero at t = 0). Over an
+/// interval the rate moves by ΔW ~ N(0, k²τ₀), and its mean is W_start + ΔW/2 + ξ where ξ, the
+/// mean of the Brownian bridge, is N(0, k²τ₀/12) and independent of ΔW. (Point samples of the
+/// walk would have AV k²τ/3·(1 + 1/(2m²)) instead.)
 pub fn add_random_walk(y: &mut [f64], rate_hz: f64, k: f64, rng: &mut Rng) {
-    let sigma = k / rate_hz.sqrt();
+    let step = k / rate_hz.sqrt();
+    let bridge = step / 12f64.sqrt();
     let mut level = 0.0;
     for v in y {
-        level += sigma * rng.gauss();
-        *v += level;
+        let dw = step * rng.gauss();
+        *v += level + dw / 2.0 + bridge * rng.gauss();
+        level += dw;
     }
 }
 
-/// A deterministic ramp r·t, t = i/fs (AV r²τ²/2 exactly).
+/// A deterministic ramp r·t (AV r²τ²/2 exactly): interval i's mean is r·(i + ½)/fs.
 pub fn add_ramp(y: &mut [f64], rate_hz: f64, r: f64) {
     for (i, v) in y.iter_mut().enumerate() {
-        *v += r * i as f64 / rate_hz;
+        *v += r * (i as f64 + 0.5) / rate_hz;
     }
 }
 
-/// First-order Gauss–Markov: the exact AR(1) discretisation x_i = φx_{i−1} + σ√(1 − φ²)·w_i with
-/// φ = e^(−τ₀/Tc), started from its stationary distribution so that there is no transient.
+/// First-order Gauss–Markov (Ornstein–Uhlenbeck, variance σ², time constant Tc), started from
+/// its stationary distribution. Exact for interval means: with φ = e^(−τ₀/Tc), the state at the
+/// interval's end and its integral I over the interval are
+/// x₁ = φx₀ + e₁, I = Tc(1 − φ)x₀ + e₂, with (e₁, e₂) jointly Gaussian:
+/// Var e₁ = σ²(1 − φ²), Var e₂ = 2σ²Tc[τ₀ − 2Tc(1 − φ) + Tc(1 − φ²)/2], Cov = σ²Tc(1 − φ)².
 pub fn add_gauss_markov(y: &mut [f64], rate_hz: f64, gm: &GaussMarkov, rng: &mut Rng) {
-    let phi = (-1.0 / (rate_hz * gm.tc_s)).exp();
-    let drive = gm.sigma * (1.0 - phi * phi).sqrt();
+    let tau0 = 1.0 / rate_hz;
+    let (s2, tc) = (gm.sigma * gm.sigma, gm.tc_s);
+    let phi = (-tau0 / tc).exp();
+    // 1 − φ and 1 − φ² without cancellation for τ₀ ≪ Tc.
+    let one_minus_phi = -(-tau0 / tc).exp_m1();
+    let one_minus_phi2 = -(-2.0 * tau0 / tc).exp_m1();
+    let v1 = s2 * one_minus_phi2;
+    let v2 = 2.0 * s2 * tc * (tau0 - 2.0 * tc * one_minus_phi + tc * one_minus_phi2 / 2.0);
+    let c12 = s2 * tc * one_minus_phi * one_minus_phi;
+    // e₁ = a·g₁, e₂ = b·g₁ + c·g₂ (Cholesky of the 2×2 covariance).
+    let a = v1.sqrt();
+    let b = if a > 0.0 { c12 / a } else { 0.0 };
+    let c = (v2 - b * b).max(0.0).sqrt();
     let mut x = gm.sigma * rng.gauss();
     for v in y {
-        *v += x;
-        x = phi * x + drive * rng.gauss();
+        let (g1, g2) = (rng.gauss(), rng.gauss());
+        let integral = tc * one_minus_phi * x + b * g1 + c * g2;
+        *v += integral / tau0;
+        x = phi * x + a * g1;
     }
 }
 
-/// A·sin(2πf₀t + φ).
+/// A·sin(2πf₀t + φ), averaged over each interval: amplitude A·sinc(πf₀τ₀) at the interval's
+/// centre.
 pub fn add_sinusoid(y: &mut [f64], rate_hz: f64, s: &SinusoidSpec) {
     let w = TAU * s.freq_hz / rate_hz;
+    let half = w / 2.0;
+    let gain = if half == 0.0 { 1.0 } else { half.sin() / half };
     for (i, v) in y.iter_mut().enumerate() {
-        *v += s.amplitude * (w * i as f64 + s.phase_rad).sin();
+        *v += s.amplitude * gain * (w * (i as f64 + 0.5) + s.phase_rad).sin();
     }
 }
 
@@ -72,13 +101,15 @@ mod tests {
         let want = 0.02f64.powi(2) / (m as f64 / fs);
         assert!((av / want - 1.0).abs() < 0.03, "{}", av / want);
 
+        // Random walk at m = 1 and 2, where point samples would read 50 % and 12.5 % high.
         let mut y = vec![0.0; n];
         add_random_walk(&mut y, fs, 1e-3, &mut Rng::new(2));
-        let m = 4;
-        let tau = m as f64 / fs;
-        let want = 1e-6 * tau / 3.0 * (1.0 + 1.0 / (2.0 * (m * m) as f64));
-        let av = oadev(&y, m);
-        assert!((av / want - 1.0).abs() < 0.05, "{}", av / want);
+        for m in [1, 2] {
+            let tau = m as f64 / fs;
+            let av = oadev(&y, m);
+            let want = 1e-6 * tau / 3.0;
+            assert!((av / want - 1.0).abs() < 0.05, "m={m}: {}", av / want);
+        }
 
         let mut y = vec![0.0; 1000];
         add_ramp(&mut y, fs, 0.5);

@@ -29,7 +29,7 @@ pub(crate) fn deviations(
     confidence: Confidence,
 ) -> Result<Vec<Result<Deviations, AvarError>>, GpuError> {
     let stat = Statistic::Oadev;
-    let prepared: Vec<Result<(PrefixSums, Vec<u64>, f64), AvarError>> = channels
+    let prepared: Vec<Prepared> = channels
         .iter()
         .map(|y| prepare(y, rate_hz, grid, stat, confidence))
         .collect();
@@ -56,6 +56,10 @@ pub(crate) fn deviations(
         .collect())
 }
 
+/// A channel ready for the GPU (prefix sums, factors, confidence probability) or the error the
+/// CPU path would give for it.
+type Prepared = Result<(PrefixSums, Vec<u64>, f64), AvarError>;
+
 /// `avar::compute_statistics`' checks, in its order: rate, confidence, grid factors, samples.
 fn prepare(
     y: &[f64],
@@ -63,7 +67,7 @@ fn prepare(
     grid: &TauGrid,
     stat: Statistic,
     confidence: Confidence,
-) -> Result<(PrefixSums, Vec<u64>, f64), AvarError> {
+) -> Prepared {
     if !(rate_hz.is_finite() && rate_hz > 0.0) {
         return Err(AvarError::InvalidRate(rate_hz));
     }

@@ -1,14 +1,15 @@
 //! Overlapping Allan variance (OADEV) on the GPU, for every channel of a recording in one
 //! submission per group of channels (as many as fit the memory budget).
 //!
-//! - Octave taus (m = 2^k) come from the pairwise-mean pyramid: M_1 = y − ȳ (mean removed in f64
-//!   on the CPU, then stored in f32), M_2m[i] = (M_m[i] + M_m[i+m])/2, and
-//!   σ²(mτ₀) = ½·mean_i (M_m[i+m] − M_m[i])², i = 0..=N−2m. One dispatch per level (per window, when
-//!   chunked) computes the level's terms and the next level together; all levels of all channels
-//!   are queued before anything is read. Levels are not fused into one dispatch: a level costs
-//!   one read and one write of N values, which is already far below the cost of launching it on
-//!   any real GPU, and fusing would add halo bookkeeping for nothing measurable.
-//! - Other taus come from prefix sums (see [`prefix`] for the f64 and fixed-point schemes).
+//! - Octave taus (m = 2^k) come from the pairwise-mean pyramid: `M_1 = y − ȳ` (mean removed in f64
+//!   on the CPU, then stored in f32), `M_2m[i] = (M_m[i] + M_m[i+m])/2`, and
+//!   `σ²(mτ₀) = ½·mean_i (M_m[i+m] − M_m[i])²`, i = 0..=N−2m. One dispatch per level (per window,
+//!   when chunked) computes the level's terms and the next level together; all levels of all
+//!   channels are queued before anything is read. Levels are not fused into one dispatch: a level
+//!   costs one read and one write of N values, which is already far below the cost of launching
+//!   it on any real GPU, and fusing would add halo bookkeeping for nothing measurable.
+//! - Other taus come from prefix sums (see the `prefix` module for the f64 and fixed-point
+//!   schemes).
 //! - Each workgroup reduces its terms to one partial sum; the host adds the partial sums in f64.
 //!
 //! EDF, noise identification and confidence intervals are the CPU module's (they need the

@@ -10,10 +10,13 @@
 //! Failure: if anything fails during a push (device lost, out of memory, a validation error), the
 //! push's partial GPU sums are discarded and a CPU `WelchAccumulator` takes over from the state
 //! before the push (the held samples plus the chunk), and keeps every later push. `finish` adds
-//! the CPU's sums to the GPU's from the pushes that completed, so the result is exactly what one
-//! path would have produced. Reading the sums once per push is what makes this possible without
-//! keeping past samples; it costs one synchronisation per push, which is small next to a push's
-//! worth of segments.
+//! the CPU's sums to the GPU's from the pushes that completed, so every segment is counted once, by
+//! one path or the other, and nothing computed after the failure is used. Reading the sums once
+//! per push is what makes this possible without keeping past samples; it costs one
+//! synchronisation per push, which is small next to a push's worth of segments.
+//!
+//! Host memory: the held samples (fewer than nperseg per channel, as on the CPU) and one batch of
+//! f32 staging, whose size the device limits and the memory budget bound.
 
 use std::sync::Arc;
 
@@ -22,6 +25,7 @@ use super::params::WelchParams;
 use super::{layout, WelchLayout};
 use crate::estimate::WelchSink;
 use crate::gpu::fallback::{FallbackLog, Task};
+use crate::gpu::fft::FftAlgorithm;
 use crate::gpu::{FallbackReason, GpuContext, GpuError};
 use crate::psd::{Detrend, Psd, PsdError, WelchAccumulator, WelchPlan};
 
@@ -46,6 +50,36 @@ pub struct GpuWelch {
     error: Option<PsdError>,
     log: Option<Arc<FallbackLog>>,
     staging: Vec<f32>,
+    spec: DeviceSpec,
+}
+
+/// What the device side is built from. Its buffers are sized for the largest push seen so far (at
+/// most `max_batch` segments per channel, the most the device's limits allow), not for the limits:
+/// a short recording should not allocate hundreds of megabytes.
+struct DeviceSpec {
+    ctx: Arc<GpuContext>,
+    template: WelchParams,
+    window: Vec<f32>,
+    algorithm: FftAlgorithm,
+    max_batch: usize,
+    channels: usize,
+}
+
+impl DeviceSpec {
+    fn build(&self, segments: usize) -> Result<WelchDevice, GpuError> {
+        let cap = Capacity {
+            channels: self.channels,
+            segments,
+            stride: (segments - 1) * self.template.step as usize + self.template.nperseg as usize,
+        };
+        WelchDevice::new(
+            Arc::clone(&self.ctx),
+            self.template,
+            &self.window,
+            self.algorithm,
+            cap,
+        )
+    }
 }
 
 enum Engine {
@@ -66,18 +100,20 @@ impl GpuWelch {
     ) -> Result<GpuWelch, FallbackReason> {
         let WelchLayout { algorithm, batch } = layout(&ctx, &plan, channels)?;
         let split = match algorithm {
-            crate::gpu::fft::FftAlgorithm::FourStep { m1, .. } => m1,
-            crate::gpu::fft::FftAlgorithm::Local => 0,
+            FftAlgorithm::FourStep { m1, .. } => m1,
+            FftAlgorithm::Local => 0,
         };
-        let template = WelchParams::for_plan(&plan, split);
-        let window: Vec<f32> = plan.window().iter().map(|&w| w as f32).collect();
-        let cap = Capacity {
+        let spec = DeviceSpec {
+            ctx,
+            template: WelchParams::for_plan(&plan, split),
+            window: plan.window().iter().map(|&w| w as f32).collect(),
+            algorithm,
+            max_batch: batch,
             channels: channels.max(1),
-            segments: batch,
-            stride: (batch - 1) * plan.step() + plan.nperseg(),
         };
-        let device = WelchDevice::new(ctx, template, &window, algorithm, cap)
-            .map_err(FallbackReason::Failed)?;
+        // A one-segment device now, so that a device that cannot even do that fails here (and the
+        // backend uses the CPU from the start); pushes grow it as needed.
+        let device = spec.build(1).map_err(FallbackReason::Failed)?;
         let error = (!(rate_hz.is_finite() && rate_hz > 0.0)).then(|| {
             PsdError::InvalidConfig(format!(
                 "sample rate must be finite and positive, got {rate_hz}"
@@ -98,6 +134,7 @@ impl GpuWelch {
             error,
             log: None,
             staging: Vec::new(),
+            spec,
         })
     }
 
@@ -144,7 +181,7 @@ impl GpuWelch {
                 Ok(sums) => {
                     for (total, add) in self.sums.iter_mut().zip(sums.chunks(self.plan.bins())) {
                         for (t, a) in total.iter_mut().zip(add) {
-                            *t += f64::from(*a);
+                            *t += a;
                         }
                     }
                     self.gpu_segments += nseg;
@@ -196,12 +233,17 @@ impl GpuWelch {
     /// Σ|X_k|², channel-major: the device's f32 sums (each over at most FLUSH_BATCHES batches)
     /// added in f64.
     fn process(&mut self, chunk: &[&[f64]], nseg: usize) -> Result<Vec<f64>, GpuError> {
-        let Engine::Gpu(device) = &self.engine else {
+        let Engine::Gpu(device) = &mut self.engine else {
             unreachable!("only called on the GPU path")
         };
-        let Capacity {
-            segments: batch, ..
-        } = device.capacity();
+        let have = device.capacity().segments;
+        let want = nseg.min(self.spec.max_batch);
+        if have < want {
+            // Grow geometrically, so that a stream of slowly growing pushes rebuilds rarely.
+            let grown = want.max(2 * have).min(self.spec.max_batch);
+            **device = self.spec.build(grown)?;
+        }
+        let batch = device.capacity().segments;
         let (step, n) = (self.plan.step(), self.plan.nperseg());
         let bins = self.plan.bins();
         let subtract_mean = self.plan.config().detrend != Detrend::None;
@@ -311,7 +353,11 @@ fn raw_mean(plan: &WelchPlan, rate_hz: f64, k: usize, value: f64) -> f64 {
         .scaling
         .factor(rate_hz, plan.sum_w(), plan.sum_w2());
     let bins = plan.bins();
-    let doubled_end = if plan.nfft() % 2 == 0 { bins - 1 } else { bins };
+    let doubled_end = if plan.nfft().is_multiple_of(2) {
+        bins - 1
+    } else {
+        bins
+    };
     let fold = if k >= 1 && k < doubled_end { 2.0 } else { 1.0 };
     value / (scale * fold)
 }
