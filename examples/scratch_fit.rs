@@ -16,11 +16,22 @@ fn main() {
     for kv in model.split(',') {
         let (k, v) = kv.split_once('=').unwrap();
         let v: f64 = v.parse().unwrap();
-        match k { "q" => c.q = v, "n" => c.n = v, "b" => c.b = v, "k" => c.k = v, "r" => c.r = v, _ => panic!() }
+        match k {
+            "q" => c.q = v,
+            "n" => c.n = v,
+            "b" => c.b = v,
+            "k" => c.k = v,
+            "r" => c.r = v,
+            _ => panic!(),
+        }
     }
     let opts = FitOptions {
         correlated_points: corr,
-        confidence: if std::env::var("P95").is_ok() { Confidence::Level(0.95) } else { Confidence::OneSigma },
+        confidence: if std::env::var("P95").is_ok() {
+            Confidence::Level(0.95)
+        } else {
+            Confidence::OneSigma
+        },
         ..Default::default()
     };
     let mut overlaps = [0u32; 5];
@@ -56,7 +67,9 @@ fn main() {
         .unwrap();
         let tf = std::time::Instant::now();
         let fa = fit_avar(&d, &opts).unwrap();
-        if t == 0 { println!("fit_avar {:?}", tf.elapsed()); }
+        if t == 0 {
+            println!("fit_avar {:?}", tf.elapsed());
+        }
         if t == std::env::var("SHOW").map_or(0, |s| s.parse().unwrap()) {
             print_fit(&fa);
             for (i, p) in fa.points.iter().enumerate() {
@@ -75,7 +88,9 @@ fn main() {
         let psd = welch(&y, fs, &WelchConfig::new(nperseg)).unwrap();
         let tf = std::time::Instant::now();
         let fp = fit_psd(&psd, &log_bin(&psd, 10), &opts).unwrap();
-        if t == 0 { println!("fit_psd {:?}", tf.elapsed()); }
+        if t == 0 {
+            println!("fit_psd {:?}", tf.elapsed());
+        }
         if std::env::var("TRACE").is_ok() {
             println!(
                 "trial {t}: av chi2/dof {:.2} terms {:?} | psd chi2/dof {:.2} terms {:?}",
@@ -92,7 +107,9 @@ fn main() {
             );
         }
         for row in imunoise::model::compare(&fa, &fp) {
-            if row.overlap == Some(true) { overlaps[row.term.index()] += 1; }
+            if row.overlap == Some(true) {
+                overlaps[row.term.index()] += 1;
+            }
         }
         for (k, f) in [fa, fp].iter().enumerate() {
             let s = &mut stats[k];

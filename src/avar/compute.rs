@@ -58,18 +58,48 @@ pub fn compute_statistics(
     let n = y.len();
     let mut plans = Vec::with_capacity(stats.len());
     for &stat in stats {
-        plans.push((stat, factors(grid, n, stat)?));
+        plans.push((stat, checked_factors(grid, n, stat)?));
     }
     let ps = PrefixSums::new(y)?;
     plans
         .into_iter()
-        .map(|(stat, ms)| estimate(&ps, rate_hz, ms, stat, p))
+        .map(|(stat, ms)| {
+            let variance = variances(&ps, &ms, stat);
+            assemble(&ps, rate_hz, ms, variance, stat, p)
+        })
         .collect()
 }
 
-/// The grid's factors, or the error that explains why there are none (or why one asked for cannot
-/// be had).
-fn factors(grid: &TauGrid, n: usize, stat: Statistic) -> Result<Vec<u64>, AvarError> {
+/// Completes variances computed elsewhere (another backend, e.g. a GPU) into [`Deviations`]
+/// exactly as [`compute`] does: noise identification, EDF and confidence bounds at every τ. `ms`
+/// must come from [`checked_factors`] for the same data and `ps` from [`PrefixSums::new`] on it.
+///
+/// # Errors
+/// [`AvarError::InvalidConfidence`] for a level outside (0, 1); [`AvarError::Overflow`] if a
+/// variance is not finite.
+///
+/// # Panics
+/// If `ms` and `variance` differ in length.
+pub fn deviations_from_variances(
+    ps: &PrefixSums,
+    rate_hz: f64,
+    ms: Vec<u64>,
+    variance: Vec<f64>,
+    stat: Statistic,
+    conf: Confidence,
+) -> Result<Deviations, AvarError> {
+    assert_eq!(
+        ms.len(),
+        variance.len(),
+        "one variance per averaging factor"
+    );
+    assemble(ps, rate_hz, ms, variance, stat, conf.probability()?)
+}
+
+/// The averaging factors [`compute`] uses for `grid` on `n` samples of `stat`, or the error it
+/// returns when there are none, when an explicit factor is zero, or when an explicit factor (or
+/// m = 1) needs more samples than there are.
+pub fn checked_factors(grid: &TauGrid, n: usize, stat: Statistic) -> Result<Vec<u64>, AvarError> {
     let too_short = |m: u64| AvarError::TooShort {
         n,
         needed: stat.min_samples(m),
@@ -99,15 +129,15 @@ fn factors(grid: &TauGrid, n: usize, stat: Statistic) -> Result<Vec<u64>, AvarEr
     Ok(ms)
 }
 
-fn estimate(
+fn assemble(
     ps: &PrefixSums,
     rate_hz: f64,
     ms: Vec<u64>,
+    variance: Vec<f64>,
     stat: Statistic,
     p: f64,
 ) -> Result<Deviations, AvarError> {
     let n = ps.len();
-    let variance = variances(ps, &ms, stat);
     // Samples near 1e154 and beyond square to infinity: no variance to report.
     if variance.iter().any(|v| !v.is_finite()) {
         return Err(AvarError::Overflow);
@@ -134,75 +164,4 @@ fn estimate(
         m: ms,
         confidence: p,
     })
-}
-
-#[cfg(test)]
-mod scratch_timing {
-    use super::*;
-    use std::time::Instant;
-
-    #[test]
-    #[ignore]
-    fn phases_log() {
-        let n = 10_000_000usize;
-        let mut s = 1u64;
-        let mut walk = 0.0;
-        let y: Vec<f64> = (0..n)
-            .map(|_| {
-                s = s
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-                walk += 1e-3 * u;
-                u + walk
-            })
-            .collect();
-        let max = Statistic::Oadev.max_factor(n) as f64;
-        let mut pts = 100;
-        let ms = loop {
-            let mut v: Vec<u64> = (0..pts)
-                .map(|i| max.powf(i as f64 / (pts - 1) as f64).round() as u64)
-                .collect();
-            v.dedup();
-            if v.len() >= 100 {
-                v.truncate(99);
-                v.push(max as u64);
-                break v;
-            }
-            pts += 1;
-        };
-        for grid in [TauGrid::Octave, TauGrid::Explicit(ms.clone())] {
-            let ms = grid.factors(n, Statistic::Oadev);
-            for _ in 0..3 {
-                let t = Instant::now();
-                let ps = PrefixSums::new(&y).unwrap();
-                let t_prefix = t.elapsed();
-                let t = Instant::now();
-                let var = variances(&ps, &ms, Statistic::Oadev);
-                let t_var = t.elapsed();
-                let t = Instant::now();
-                let alphas: Vec<i8> = ms
-                    .par_iter()
-                    .map(|&m| identify(&ps, m, Statistic::Oadev).alpha)
-                    .collect();
-                let t_id = t.elapsed();
-                let t = Instant::now();
-                let b: Vec<(f64, f64)> = ms
-                    .iter()
-                    .zip(&alphas)
-                    .zip(&var)
-                    .map(|((&m, &a), &v)| {
-                        let e = edf(Statistic::Oadev, a, m, n);
-                        variance_bounds(v, e, 0.68)
-                    })
-                    .collect();
-                let t_edf = t.elapsed();
-                let t = Instant::now();
-                let d = compute(&y, 1.0, &grid, Statistic::Oadev, Confidence::OneSigma).unwrap();
-                let t_all = t.elapsed();
-                eprintln!("{} taus: prefix {t_prefix:?} variances {t_var:?} noise-id {t_id:?} edf+bounds {t_edf:?} | compute {t_all:?}", ms.len());
-                std::hint::black_box((b, d));
-            }
-        }
-    }
 }

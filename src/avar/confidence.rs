@@ -37,7 +37,7 @@ impl Confidence {
 /// at two-sided probability `p` (already validated). A variance of 0 gives (0, 0); a non-positive
 /// or non-finite EDF gives (0, ∞): no information.
 pub fn variance_bounds(variance: f64, edf: f64, p: f64) -> (f64, f64) {
-    if !(edf > 0.0) || !edf.is_finite() {
+    if !edf.is_finite() || edf <= 0.0 {
         return (0.0, f64::INFINITY);
     }
     let q = (1.0 - p) / 2.0;
@@ -80,7 +80,7 @@ pub fn chi2_quantile(p: f64, nu: f64) -> f64 {
         let mut next = x - f / density;
         // Fall back to bisection (or doubling while no upper bound is known) when Newton leaves
         // the bracket or the density underflows.
-        if !(next > lo && next < hi) || !next.is_finite() {
+        if !(next > lo && next < hi && next.is_finite()) {
             next = if hi.is_finite() {
                 0.5 * (lo + hi)
             } else {

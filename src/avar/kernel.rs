@@ -168,7 +168,10 @@ fn second_portable<const T: usize, const R: usize, const PAIRS: bool>(
     let mut out = [0.0f64; T];
     for (c, slot) in out.iter_mut().enumerate() {
         let (n, f) = pair_of::<PAIRS>(c);
-        *slot = finish(&acc[c], tail_second(full, len, streams[0], streams[n], streams[f]));
+        *slot = finish(
+            &acc[c],
+            tail_second(full, len, streams[0], streams[n], streams[f]),
+        );
     }
     out
 }
@@ -362,7 +365,10 @@ mod tests {
                 group_second(len, taus, Layout::Pairs, &pairs[..2 * taus + 1], &mut out);
                 for (c, got) in out[..taus].iter().enumerate() {
                     let want = direct(ms[c], len);
-                    assert!((got - want).abs() <= 1e-12 * want.max(1.0), "{len} pairs {c}");
+                    assert!(
+                        (got - want).abs() <= 1e-12 * want.max(1.0),
+                        "{len} pairs {c}"
+                    );
                 }
             }
             let want3: f64 = (0..len)
@@ -388,13 +394,25 @@ mod tests {
         for len in [3, 64, 999, 4000] {
             let mut out = [0.0; MAX_GROUP];
             group_second(len, 4, Layout::Chain, &chain, &mut out);
-            assert_eq!(out.map(f64::to_bits), second_portable::<4, 2, false>(len, &chain).map(f64::to_bits));
+            assert_eq!(
+                out.map(f64::to_bits),
+                second_portable::<4, 2, false>(len, &chain).map(f64::to_bits)
+            );
             group_second(len, 4, Layout::Pairs, &pairs, &mut out);
-            assert_eq!(out.map(f64::to_bits), second_portable::<4, 2, true>(len, &pairs).map(f64::to_bits));
+            assert_eq!(
+                out.map(f64::to_bits),
+                second_portable::<4, 2, true>(len, &pairs).map(f64::to_bits)
+            );
             group_second(len, 1, Layout::Chain, &chain[..3], &mut out);
-            assert_eq!(out[0].to_bits(), second_portable::<1, 4, false>(len, &chain[..3])[0].to_bits());
+            assert_eq!(
+                out[0].to_bits(),
+                second_portable::<1, 4, false>(len, &chain[..3])[0].to_bits()
+            );
             let st3 = [&s[..], &s[m..], &s[2 * m..], &s[3 * m..]];
-            assert_eq!(third(len, &st3).to_bits(), third_portable(len, &st3).to_bits());
+            assert_eq!(
+                third(len, &st3).to_bits(),
+                third_portable(len, &st3).to_bits()
+            );
         }
     }
 }

@@ -51,7 +51,7 @@ mod sweep;
 mod tau;
 mod variances;
 
-pub use compute::{compute, compute_statistics};
+pub use compute::{checked_factors, compute, compute_statistics, deviations_from_variances};
 pub use confidence::{chi2_quantile, variance_bounds, Confidence, ONE_SIGMA};
 pub use deviations::Deviations;
 pub use error::AvarError;

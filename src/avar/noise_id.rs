@@ -139,7 +139,7 @@ fn lag1_autocorrelation(z: &[f64]) -> Option<f64> {
     }
     let mean = z.iter().sum::<f64>() / n as f64;
     let den: f64 = z.iter().map(|v| (v - mean) * (v - mean)).sum();
-    if !(den > 0.0) {
+    if den.is_nan() || den <= 0.0 {
         return None;
     }
     let num: f64 = z.windows(2).map(|w| (w[0] - mean) * (w[1] - mean)).sum();
@@ -163,7 +163,7 @@ fn by_b1(ps: &PrefixSums, m: usize) -> NoiseEstimate {
         .sum::<f64>()
         / averages.len() as f64;
     let avar = sampled_avar(s, m, step);
-    if !(avar > 0.0) {
+    if avar.is_nan() || avar <= 0.0 {
         return NoiseEstimate {
             alpha: 0,
             method: NoiseIdMethod::Degenerate,

@@ -334,11 +334,9 @@ mod tests {
         let ps = PrefixSums::new(&y).unwrap();
         assert_eq!(ps.mean(), offset as f64 / 1024.0);
         let mut acc = 0i64;
-        for j in 0..=n {
-            assert_eq!(ps.s()[j], acc as f64 / 1024.0, "j = {j}");
-            if j < n {
-                acc += ints[j];
-            }
+        for (j, &s) in ps.s().iter().enumerate() {
+            assert_eq!(s, acc as f64 / 1024.0, "j = {j}");
+            acc += ints.get(j).copied().unwrap_or(0);
         }
     }
 

@@ -164,7 +164,7 @@ mod tests {
                 let n = st.min_samples(m);
                 assert!(st.n_terms(n, m) >= 2, "{st} m={m} n={n}");
                 assert!(st.n_terms(n - 1, m) < 2, "{st} m={m} n={}", n - 1);
-                assert_eq!(st.max_factor(n) >= m, true, "{st} m={m}");
+                assert!(st.max_factor(n) >= m, "{st} m={m}");
             }
         }
     }

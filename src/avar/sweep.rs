@@ -271,35 +271,3 @@ mod tests {
         assert_eq!(neumaier(v.into_iter()), 2.0);
     }
 }
-
-#[cfg(test)]
-mod scratch {
-    use super::*;
-    use std::time::Instant;
-    #[test]
-    #[ignore]
-    fn sweep_speed() {
-        let n = 10_000_000usize;
-        let s: Vec<f64> = (0..=n).map(|i| (i as f64).sqrt()).collect();
-        let max = ((n - 1) / 2) as f64;
-        let mut pts = 100;
-        let ms = loop { let mut v: Vec<u64> = (0..pts).map(|i| max.powf(i as f64 / (pts - 1) as f64).round() as u64).collect(); v.dedup(); if v.len() >= 100 { v.truncate(99); v.push(max as u64); break v; } pts += 1; };
-        let oct: Vec<u64> = (0..23).map(|k| 1u64 << k).collect();
-        let mut best = [f64::MAX; 7];
-        for _ in 0..6 {
-            let t = Instant::now();
-            std::hint::black_box(overlapping_sums(&s, &oct, Order::Second));
-            best[6] = best[6].min(t.elapsed().as_secs_f64());
-            let t = Instant::now();
-            std::hint::black_box(overlapping_sums(&s, &ms, Order::Second));
-            best[5] = best[5].min(t.elapsed().as_secs_f64());
-            for (i, (lo, hi)) in [(0u32, 12u32), (12, 16), (16, 19), (19, 21), (21, 23)].into_iter().enumerate() {
-                let set: Vec<u64> = ms.iter().cloned().filter(|&m| m >= 1 << lo && m < 1 << hi).collect();
-                let t = Instant::now();
-                std::hint::black_box(overlapping_sums(&s, &set, Order::Second));
-                best[i] = best[i].min(t.elapsed().as_secs_f64());
-            }
-        }
-        eprintln!("best ms: small {:.1} [12,16) {:.1} [16,19) {:.1} [19,21) {:.1} [21,23) {:.1} | log100 {:.1} | octave {:.1}", best[0]*1e3, best[1]*1e3, best[2]*1e3, best[3]*1e3, best[4]*1e3, best[5]*1e3, best[6]*1e3);
-    }
-}

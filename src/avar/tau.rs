@@ -82,7 +82,7 @@ fn per_decade(n: u32, max: u64) -> Vec<u64> {
     }
     for k in 0u32.. {
         let m = 10f64.powf(f64::from(k) / f64::from(n)).round();
-        if !(m <= max as f64) {
+        if m.is_nan() || m > max as f64 {
             break;
         }
         let m = m as u64;

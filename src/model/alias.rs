@@ -71,7 +71,10 @@ mod tests {
         // Σ 1/(x+k)² = π²/sin²(πx): the p = 0 identity, checked through the general path.
         for x in [0.01, 0.2, 0.37, 0.5] {
             let s = (PI * x).sin();
-            assert!((s * s / (PI * PI) * alias_sum(x, 2) - 1.0).abs() < 1e-12, "{x}");
+            assert!(
+                (s * s / (PI * PI) * alias_sum(x, 2) - 1.0).abs() < 1e-12,
+                "{x}"
+            );
         }
         // Far below Nyquist the k = 0 term dominates: S_d/S = sinc² + O(x^(p+2)).
         let fs = 100.0;

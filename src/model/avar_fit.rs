@@ -5,8 +5,8 @@
 //! and ν Greenhall's EDF for the noise type of each term (recomputed from the model at every
 //! iteration, not the noise type identified on the data, which at the largest τ rests on a few
 //! averages and is unreliable). The rate ramp is taken as deterministic (IEEE 952 describes it
-//! so): it raises σ²(τ) but adds no scatter, so points it dominates are weighted by the scatter of
-//! the noise under it.
+//! so): it raises σ²(τ) but adds no scatter of its own, only through its product with the noise
+//! ([`cross_factor`]).
 //!
 //! Correlation: overlapping Allan variances at neighbouring τ are computed from the same samples,
 //! and their errors are strongly correlated, the more so the redder the noise. Measured on 2000
@@ -94,12 +94,32 @@ pub fn fit_avar(d: &Deviations, opts: &FitOptions) -> Result<NoiseFit, FitError>
                 })
             })
             .collect(),
+        cross: keep.iter().map(|&i| cross_factor(d, i)).collect(),
         corr: opts.correlated_points.then(|| {
             let position: Vec<f64> = keep.iter().map(|&i| (d.m[i] as f64).log2()).collect();
             Correlation::per_term(&position, CORRELATION)
         }),
     };
     select_and_fit(&problem, &tau, opts.mask(), opts, Domain::Allan)
+}
+
+/// Variance of the ramp × noise cross term of point i per unit μ_R·μ_noise.
+///
+/// With a ramp, each difference of τ-averages is Rτ + δ_j, so σ̂² gains Rτ·mean(δ_j). For the
+/// non-overlapping estimator the mean telescopes to (ȳ_last − ȳ_first)/M: variance 4μ_Rμ_N/M² for
+/// white noise. For the overlapping one it leaves the first and last m averages:
+/// mean(δ) = (Σ_last m ȳ − Σ_first m ȳ)/M, variance (8/3)(m/M)²·μ_R·μ_N. Negligible at short τ,
+/// it dominates the scatter of the longest τ, where M is a few m. The white-noise form is used for
+/// any noise (red noise makes the two ends of the record differ more: an underestimate there).
+fn cross_factor(d: &Deviations, i: usize) -> f64 {
+    let (m, big_m) = (d.m[i] as f64, d.n_terms[i] as f64);
+    if big_m <= 0.0 {
+        return 0.0;
+    }
+    match d.statistic {
+        Statistic::Oadev => 8.0 / 3.0 * (m / big_m).powi(2),
+        _ => 4.0 / (big_m * big_m),
+    }
 }
 
 /// Number of rate samples behind `d`, from the term count of its first τ (exact for OADEV; for

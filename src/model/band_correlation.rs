@@ -19,9 +19,17 @@ use crate::psd::{BinnedPsd, Psd};
 
 /// Correlation matrix of the bands `keep` of `binned` (the log-binned form of `psd`); `None` when
 /// the window cannot be rebuilt from what `psd` records.
-pub(crate) fn band_correlation(psd: &Psd, binned: &BinnedPsd, keep: &[usize]) -> Option<Vec<Vec<f64>>> {
+pub(crate) fn band_correlation(
+    psd: &Psd,
+    binned: &BinnedPsd,
+    keep: &[usize],
+) -> Option<Vec<Vec<f64>>> {
     let window = psd.window.coefficients(psd.nperseg).ok()?;
-    if psd.nperseg == 0 || psd.noverlap >= psd.nperseg || psd.nfft < psd.nperseg || psd.segments == 0 {
+    if psd.nperseg == 0
+        || psd.noverlap >= psd.nperseg
+        || psd.nfft < psd.nperseg
+        || psd.segments == 0
+    {
         return None;
     }
     let step = psd.nperseg - psd.noverlap;

@@ -20,6 +20,7 @@
 
 use super::linalg::{cholesky, inverse_spd, solve_lower};
 use super::nnls::nnls;
+use super::Term;
 
 /// Number of base terms.
 pub(crate) const TERMS: usize = 5;
@@ -35,6 +36,9 @@ pub(crate) struct Problem {
     pub edf: Vec<[f64; TERMS]>,
     /// Working correlation between points; `None`: independent.
     pub corr: Option<Correlation>,
+    /// `cross[i]`: variance of point i from the product of a deterministic term (infinite EDF)
+    /// and the random ones, per unit μ_det·μ_random (see `avar_fit.rs`); empty: none.
+    pub cross: Vec<f64>,
 }
 
 /// The working correlation between points.
@@ -148,20 +152,31 @@ impl Problem {
         let mut mix: Vec<Option<[f64; TERMS]>> = Vec::with_capacity(self.len());
         let nu: Vec<f64> = (0..self.len())
             .map(|i| {
-                let total: f64 = (0..TERMS).map(|j| c[j] * self.basis[i][j]).sum();
-                let sigma: [f64; TERMS] = std::array::from_fn(|j| {
-                    c[j] * self.basis[i][j] * (2.0 / self.edf[i][j]).sqrt()
-                });
-                let sum: f64 = sigma.iter().sum();
+                let part: [f64; TERMS] = std::array::from_fn(|j| c[j] * self.basis[i][j]);
+                let total: f64 = part.iter().sum();
                 if !(total > 0.0) {
                     // No model here: the most pessimistic single-term EDF.
                     mix.push(None);
                     return self.edf[i].iter().cloned().fold(f64::INFINITY, f64::min);
                 }
-                mix.push((sum > 0.0).then(|| sigma.map(|v| v / sum)));
-                // σ/μ = √2/√ν.
-                let inv_sqrt_nu = sum / total / 2f64.sqrt();
-                (1.0 / (inv_sqrt_nu * inv_sqrt_nu)).min(NU_MAX)
+                let mut sigma: [f64; TERMS] =
+                    std::array::from_fn(|j| part[j] * (2.0 / self.edf[i][j]).sqrt());
+                let random: f64 = (0..TERMS)
+                    .filter(|&j| self.edf[i][j].is_finite())
+                    .map(|j| part[j])
+                    .sum();
+                let det = total - random;
+                let cross = self.cross.get(i).copied().unwrap_or(0.0) * det * random;
+                let sum: f64 = sigma.iter().sum();
+                let sd = (sum * sum + cross).sqrt();
+                if cross > 0.0 {
+                    // The cross variance follows the record's ends at every τ: long-range
+                    // correlated, as a random walk's is. Its share goes with that term's.
+                    sigma[Term::RateRandomWalk.index()] += sd - sum;
+                }
+                mix.push((sd > 0.0).then(|| sigma.map(|v| v / sd)));
+                // sd/μ = √2/√ν.
+                (2.0 * total * total / (sd * sd)).min(NU_MAX)
             })
             .collect();
         let sd = (0..self.len())
@@ -353,6 +368,7 @@ mod tests {
             basis,
             edf: vec![[100.0; TERMS]; 12],
             corr: None,
+            cross: Vec::new(),
         };
         let fit = p.irls(0b11111);
         for j in 0..TERMS {

@@ -96,6 +96,7 @@ pub fn fit_psd(psd: &Psd, binned: &BinnedPsd, opts: &FitOptions) -> Result<Noise
         basis,
         edf: keep.iter().map(|&b| [binned.dof[b]; TERMS]).collect(),
         corr: band_correlation(psd, binned, &keep).and_then(Correlation::fixed),
+        cross: Vec::new(),
     };
     let x: Vec<f64> = keep.iter().map(|&b| binned.freq_hz[b]).collect();
     select_and_fit(&problem, &x, opts.mask(), opts, Domain::Spectrum)

@@ -5,6 +5,7 @@ mod avar;
 mod cli;
 mod gpu;
 mod io;
+mod model;
 mod psd;
 mod readers_prop;
 mod schema;
