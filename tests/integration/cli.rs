@@ -245,3 +245,70 @@ fn help_explains_options_with_units() {
         assert!(help.contains(needle), "help lacks {needle}");
     }
 }
+
+/// `--backend gpu` end to end: the outputs name the adapter and agree with `--backend cpu` (PSD 1e-4
+/// on bins above 1e-6 of the maximum, deviations 1e-5); without an adapter it is a clear exit 2,
+/// which CI (IMUNOISE_REQUIRE_GPU=1, lavapipe installed) does not accept.
+#[test]
+fn backend_gpu_agrees_with_cpu_or_fails_cleanly() {
+    let root = repo_root();
+    let args = |b: &'static str| {
+        vec![
+            "analyze",
+            "data/sample_imu.arrow",
+            "--json",
+            "--channels",
+            "gyro_x,accel_z",
+            "--nperseg",
+            "1024",
+            "--backend",
+            b,
+        ]
+    };
+    let gpu = imunoise(&args("gpu"), &root);
+    if gpu.status.code() == Some(2) {
+        let stderr = String::from_utf8_lossy(&gpu.stderr);
+        assert!(stderr.contains("--backend gpu"), "{stderr}");
+        assert!(
+            std::env::var("IMUNOISE_REQUIRE_GPU").as_deref() != Ok("1"),
+            "IMUNOISE_REQUIRE_GPU=1 but --backend gpu failed: {stderr}"
+        );
+        eprintln!("skipping: no GPU adapter ({stderr})");
+        return;
+    }
+    assert_eq!(
+        gpu.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&gpu.stderr)
+    );
+    let cpu = imunoise(&args("cpu"), &root);
+    let (g, c) = (json_of(&gpu), json_of(&cpu));
+    assert!(
+        g["backend"].as_str().unwrap().starts_with("gpu: "),
+        "{}",
+        g["backend"]
+    );
+    assert!(c["backend"].as_str().unwrap().starts_with("cpu"));
+    assert_eq!(
+        g["files"][0]["backend_notes"],
+        serde_json::json!([]),
+        "nothing fell back"
+    );
+    let floats = |v: &Value| -> Vec<f64> { serde_json::from_value(v.clone()).unwrap() };
+    for ch in 0..2 {
+        let (pg, pc) = (
+            floats(&g["files"][0]["psd"][ch]["value"]),
+            floats(&c["files"][0]["psd"][ch]["value"]),
+        );
+        let max = pc.iter().cloned().fold(0.0, f64::max);
+        for (a, b) in pg.iter().zip(&pc).filter(|(_, b)| **b > 1e-6 * max) {
+            assert!((a - b).abs() <= 1e-4 * b, "psd {a} vs {b}");
+        }
+        let dev = |d: &Value| floats(&d["files"][0]["avar"][ch]["statistics"][0]["deviation"]);
+        for (a, b) in dev(&g).iter().zip(dev(&c)) {
+            // 1e-5 on the variance is 5e-6 on the deviation.
+            assert!((a - b).abs() <= 5e-6 * b, "deviation {a} vs {b}");
+        }
+    }
+}

@@ -34,7 +34,14 @@ fn record(c: Coefficients, fs: f64, n: usize, seed: u64) -> Vec<f64> {
 }
 
 fn oadev(y: &[f64], fs: f64) -> Deviations {
-    compute(y, fs, &TauGrid::Octave, Statistic::Oadev, Confidence::OneSigma).unwrap()
+    compute(
+        y,
+        fs,
+        &TauGrid::Octave,
+        Statistic::Oadev,
+        Confidence::OneSigma,
+    )
+    .unwrap()
 }
 
 fn spectrum(y: &[f64], fs: f64, nperseg: usize) -> Psd {
@@ -101,7 +108,12 @@ mod link {
         let x_max = 1000.0 * PI;
         let g = |x: f64| 4.0 * s(x / (PI * tau)) * x.sin().powi(4) / (x * x) / (PI * tau);
         let x_lo = PI * f_lo * tau;
-        let body = integrate(&g, x_lo, x_max, ((x_max - x_lo) / (PI / 4.0)).ceil() as usize);
+        let body = integrate(
+            &g,
+            x_lo,
+            x_max,
+            ((x_max - x_lo) / (PI / 4.0)).ceil() as usize,
+        );
         let tail = integrate(
             &|u: f64| 1.5 / (x_max * PI * tau) * s(x_max / (u * PI * tau)),
             0.0,
@@ -125,7 +137,10 @@ mod link {
 
     fn close(got: f64, want: f64, tol: f64, what: &str) {
         let r = got / want - 1.0;
-        assert!(r.abs() < tol, "{what}: link {got:e}, AV form {want:e}, relative {r:e}");
+        assert!(
+            r.abs() < tol,
+            "{what}: link {got:e}, AV form {want:e}, relative {r:e}"
+        );
     }
 
     #[test]
@@ -134,21 +149,41 @@ mod link {
         // integrals converge at both ends. Tolerance 1e-5: the quadrature is good to ~1e-7.
         let tau0 = 0.01;
         for tau in [0.05, 1.0, 30.0] {
-            for term in [Term::RandomWalk, Term::BiasInstability, Term::RateRandomWalk] {
+            for term in [
+                Term::RandomWalk,
+                Term::BiasInstability,
+                Term::RateRandomWalk,
+            ] {
                 let got = continuous(&|f| term.psd_unit(f, tau0), tau, 0.0);
-                close(got, term.avar_unit(tau), 1e-5, &format!("{term} at τ = {tau}"));
+                close(
+                    got,
+                    term.avar_unit(tau),
+                    1e-5,
+                    &format!("{term} at τ = {tau}"),
+                );
             }
             for tc in [0.1, 3.0, 100.0] {
-                let gm = GaussMarkov { sigma: 0.7, tc_s: tc };
+                let gm = GaussMarkov {
+                    sigma: 0.7,
+                    tc_s: tc,
+                };
                 let got = continuous(&|f| gm.psd(f), tau, 0.0);
-                close(got, gm.avar(tau), 1e-5, &format!("GM Tc = {tc} at τ = {tau}"));
+                close(
+                    got,
+                    gm.avar(tau),
+                    1e-5,
+                    &format!("GM Tc = {tc} at τ = {tau}"),
+                );
             }
         }
         // Flicker plateau: (2 ln 2/π)·B², σ ≈ 0.664·B.
         assert!((FLICKER_PLATEAU - 2.0 * std::f64::consts::LN_2 / PI).abs() < 1e-16);
         // Sinusoid: lines of power Ω₀²/4 at ±f₀ put 4·Ω₀²/4·sin⁴(πf₀τ)/(πf₀τ)² into the integral
         // from 0 to ∞ (one line); exact.
-        let s = Sinusoid { amplitude: 1.5, freq_hz: 0.3 };
+        let s = Sinusoid {
+            amplitude: 1.5,
+            freq_hz: 0.3,
+        };
         let x = PI * 0.3 * 2.0;
         let want = 4.0 * s.line_power() * x.sin().powi(4) / (x * x);
         assert!((s.avar(2.0) - want).abs() < 1e-15);
@@ -164,7 +199,12 @@ mod link {
             let tau = f64::from(m) / fs;
             for term in Term::ALL.into_iter().filter(|&t| t != Term::RateRamp) {
                 let got = sampled(&|f| term.psd_sampled_unit(f, fs), m, fs);
-                close(got, term.avar_unit(tau), 1e-9, &format!("sampled {term} at m = {m}"));
+                close(
+                    got,
+                    term.avar_unit(tau),
+                    1e-9,
+                    &format!("sampled {term} at m = {m}"),
+                );
             }
         }
     }
@@ -192,7 +232,15 @@ mod simulator {
     fn flicker_is_one_over_f_up_to_nyquist_and_flat_in_allan_variance() {
         let fs = 100.0;
         let b = 1e-3;
-        let y = record(Coefficients { b, ..Default::default() }, fs, 1 << 18, 21);
+        let y = record(
+            Coefficients {
+                b,
+                ..Default::default()
+            },
+            fs,
+            1 << 18,
+            21,
+        );
         // Spectrum: every band from 4 bins up to Nyquist within 4σ (σ = √(2/ν) of the band) of
         // B² times the sampled 1/f form averaged over the band.
         let psd = spectrum(&y, fs, 4096);
@@ -238,14 +286,30 @@ mod simulator {
         // N = 0 (the rate is a pure ramp).
         let fs = 10.0;
         let k = 1e-3;
-        let y = record(Coefficients { k, ..Default::default() }, fs, 1 << 20, 5);
+        let y = record(
+            Coefficients {
+                k,
+                ..Default::default()
+            },
+            fs,
+            1 << 20,
+            5,
+        );
         let d = oadev(&y, fs);
         for i in 0..5 {
             let ratio = d.variance[i] / (k * k * d.tau_s[i] / 3.0);
             assert!((ratio - 1.0).abs() < 0.03, "m = {}: {ratio}", d.m[i]);
         }
         let r = 2e-4;
-        let y = record(Coefficients { r, ..Default::default() }, fs, 10_000, 5);
+        let y = record(
+            Coefficients {
+                r,
+                ..Default::default()
+            },
+            fs,
+            10_000,
+            5,
+        );
         let d = oadev(&y, fs);
         for i in 0..d.len() {
             let ratio = d.variance[i] / (r * r * d.tau_s[i].powi(2) / 2.0);
@@ -269,7 +333,10 @@ fn units_reproduce_the_papers_table_3_conversions() {
     ];
     for (from, v, to, want) in cases {
         let got = from.convert(v, to).unwrap();
-        assert!((got - want).abs() < 1e-12, "{v} {from} = {got} {to}, paper {want}");
+        assert!(
+            (got - want).abs() < 1e-12,
+            "{v} {from} = {got} {to}, paper {want}"
+        );
     }
     // Kalibr's densities are the SI units: 0.5 °/√h = 1.454e-4 rad/s/√Hz.
     let n = DegPerSqrtH.convert(0.5, RadPerSPerSqrtHz).unwrap();
@@ -288,13 +355,21 @@ mod recovery {
         // 7 % (AV) and 9 % (PSD): the ±5 % and ±25 % bounds are > 3σ. One record can still show a
         // spurious term (≈ 5 % of records per absent term and fit); the rate is checked in
         // `coverage`.
-        let truth = Coefficients { n: 1e-3, k: 2e-4, ..Default::default() };
+        let truth = Coefficients {
+            n: 1e-3,
+            k: 2e-4,
+            ..Default::default()
+        };
         let y = record(truth, 100.0, 1 << 18, 1);
         let (av, sp) = fit_both(&y, 100.0, 1 << 15, &FitOptions::default());
         for fit in [&av, &sp] {
             assert!(rel_err(fit, Term::RandomWalk, truth.n) < 0.05);
             assert!(rel_err(fit, Term::RateRandomWalk, truth.k) < 0.25);
-            assert_eq!(kept(fit), [Term::RandomWalk, Term::RateRandomWalk], "{fit:#?}");
+            assert_eq!(
+                kept(fit),
+                [Term::RandomWalk, Term::RateRandomWalk],
+                "{fit:#?}"
+            );
             assert!(fit.chi2_per_dof() < 2.0, "χ²/dof {}", fit.chi2_per_dof());
         }
     }
@@ -306,10 +381,19 @@ mod recovery {
         // to σ² at τ₀. R = 1.6e-6 rad/s² overtakes white noise at τ ≈ 90 s of 2621 s. Over 50
         // seeds: Q scatters 0.7 % (both fits), R 2.6 % (AV): bounds ±5 % and ±25 %. The ramp lives in
         // the lowest Welch bins, which the spectrum fit excludes, so only the AV fit may see it.
-        let truth = Coefficients { n: 1e-3, q: 4e-5, r: 1.6e-6, ..Default::default() };
+        let truth = Coefficients {
+            n: 1e-3,
+            q: 4e-5,
+            r: 1.6e-6,
+            ..Default::default()
+        };
         let y = record(truth, 100.0, 1 << 18, 2);
         let (av, sp) = fit_both(&y, 100.0, 4096, &FitOptions::default());
-        assert_eq!(kept(&av), [Term::Quantization, Term::RandomWalk, Term::RateRamp], "{av:#?}");
+        assert_eq!(
+            kept(&av),
+            [Term::Quantization, Term::RandomWalk, Term::RateRamp],
+            "{av:#?}"
+        );
         assert_eq!(kept(&sp), [Term::Quantization, Term::RandomWalk], "{sp:#?}");
         for fit in [&av, &sp] {
             assert!(rel_err(fit, Term::Quantization, truth.q) < 0.05);
@@ -325,13 +409,21 @@ mod recovery {
         // N scatters 0.2 % in both fits, B 1.4 % (AV) and 1.6 % (PSD), and the two fits' 1σ
         // intervals overlapped in 80 of 80 checked records (same data: the estimates are strongly
         // correlated).
-        let truth = Coefficients { n: 1e-3, b: 2e-3, ..Default::default() };
+        let truth = Coefficients {
+            n: 1e-3,
+            b: 2e-3,
+            ..Default::default()
+        };
         let y = record(truth, 100.0, 1 << 18, 3);
         let (av, sp) = fit_both(&y, 100.0, 4096, &FitOptions::default());
         for fit in [&av, &sp] {
             assert!(rel_err(fit, Term::RandomWalk, truth.n) < 0.05);
             assert!(rel_err(fit, Term::BiasInstability, truth.b) < 0.25);
-            assert_eq!(kept(fit), [Term::RandomWalk, Term::BiasInstability], "{fit:#?}");
+            assert_eq!(
+                kept(fit),
+                [Term::RandomWalk, Term::BiasInstability],
+                "{fit:#?}"
+            );
         }
         let table = compare(&av, &sp);
         assert_eq!(table.len(), 2);
@@ -362,14 +454,21 @@ mod recovery {
 #[test]
 fn coverage_and_spurious_terms() {
     const TRIALS: u64 = 150;
-    let truth = Coefficients { n: 1e-3, k: 2e-4, ..Default::default() };
+    let truth = Coefficients {
+        n: 1e-3,
+        k: 2e-4,
+        ..Default::default()
+    };
     let opts = FitOptions::default();
     let (mut cover_n, mut cover_k, mut spurious) = (0u32, 0u32, [0u32; 5]);
     for seed in 0..TRIALS {
         let y = record(truth, 100.0, 1 << 16, 1000 + seed);
         let fit = fit_avar(&oadev(&y, 100.0), &opts).unwrap();
         cover_n += u32::from(fit.get(Term::RandomWalk).is_some_and(|e| e.covers(truth.n)));
-        cover_k += u32::from(fit.get(Term::RateRandomWalk).is_some_and(|e| e.covers(truth.k)));
+        cover_k += u32::from(
+            fit.get(Term::RateRandomWalk)
+                .is_some_and(|e| e.covers(truth.k)),
+        );
         for e in &fit.estimates {
             if truth.get(e.term) == 0.0 {
                 spurious[e.term.index()] += 1;
@@ -386,30 +485,59 @@ fn coverage_and_spurious_terms() {
         rate(spurious[4])
     );
     for (name, c) in [("N", cover_n), ("K", cover_k)] {
-        assert!((0.55..=0.85).contains(&rate(c)), "{name} coverage {}", rate(c));
+        assert!(
+            (0.55..=0.85).contains(&rate(c)),
+            "{name} coverage {}",
+            rate(c)
+        );
     }
     for t in [Term::Quantization, Term::BiasInstability, Term::RateRamp] {
-        assert!(rate(spurious[t.index()]) <= 0.15, "{t} in {} records", spurious[t.index()]);
+        assert!(
+            rate(spurious[t.index()]) <= 0.15,
+            "{t} in {} records",
+            spurious[t.index()]
+        );
     }
 }
 
 /// What the fits refuse.
 #[test]
 fn bad_inputs_are_errors() {
-    let y = record(Coefficients { n: 1e-3, ..Default::default() }, 100.0, 4096, 9);
-    let mdev = compute(&y, 100.0, &TauGrid::Octave, Statistic::Mdev, Confidence::OneSigma).unwrap();
+    let y = record(
+        Coefficients {
+            n: 1e-3,
+            ..Default::default()
+        },
+        100.0,
+        4096,
+        9,
+    );
+    let mdev = compute(
+        &y,
+        100.0,
+        &TauGrid::Octave,
+        Statistic::Mdev,
+        Confidence::OneSigma,
+    )
+    .unwrap();
     assert_eq!(
         fit_avar(&mdev, &FitOptions::default()).unwrap_err(),
         FitError::UnsupportedStatistic(Statistic::Mdev)
     );
-    let cfg = WelchConfig { scaling: Scaling::Spectrum, ..WelchConfig::new(256) };
+    let cfg = WelchConfig {
+        scaling: Scaling::Spectrum,
+        ..WelchConfig::new(256)
+    };
     let power = welch(&y, 100.0, &cfg).unwrap();
     assert_eq!(
         fit_psd(&power, &log_bin(&power, 10), &FitOptions::default()).unwrap_err(),
         FitError::NotDensity
     );
     let psd = spectrum(&y, 100.0, 256);
-    let opts = FitOptions { min_freq_hz: Some(49.9), ..Default::default() };
+    let opts = FitOptions {
+        min_freq_hz: Some(49.9),
+        ..Default::default()
+    };
     assert!(matches!(
         fit_psd(&psd, &log_bin(&psd, 10), &opts),
         Err(FitError::TooFewPoints { .. })
