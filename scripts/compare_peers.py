@@ -8,8 +8,9 @@ then runs, each in its own process so that peak memory is its own:
   * imunoise avar   (OADEV, 100 log-spaced taus)             vs allantools.oadev(taus=<the same taus>)
 and prints wall time, the estimator's own time, peak resident memory and the ratios. imunoise is run
 as the release binary, end to end (read the file, screen it, estimate, write Arrow/JSON); its
-compute-only time is taken from the timings in its results.json. The peers are timed on data already
-in memory (loading excluded), which favours them.
+compute-only time is taken from the timings in its results.json (Welch: reading + screening + Welch,
+as they stream together; Allan: the estimator alone). The peers are timed on data already in memory
+(loading excluded). Run it on an otherwise idle machine: both cores are used.
 
 Usage: cargo build --release && python3 scripts/compare_peers.py [--samples N] [--keep DIR]
 Needs numpy, scipy, allantools, pyarrow.
@@ -29,12 +30,14 @@ NPERSEG = 65536
 
 
 def log_taus(n, count=100):
-    """`count` log-spaced averaging factors from 1 to the largest OADEV allows, made unique."""
-    import numpy as np
+    """`count` log-spaced averaging factors from 1 to the largest OADEV allows, made unique (so a few
+    fewer than `count` at the small end). Pure Python: this process stays small, because a child
+    forked from it starts with its resident memory counted in the child's peak."""
+    import math
 
     m_max = (n - 1) // 2
-    m = np.unique(np.round(np.logspace(0, np.log10(m_max), count)).astype(np.int64))
-    return [int(x) for x in m]
+    step = math.log10(m_max) / (count - 1)
+    return sorted({int(round(10 ** (i * step))) for i in range(count)})
 
 
 def make_data(path, n):
@@ -53,7 +56,7 @@ def make_data(path, n):
 
 
 def run_measured(cmd):
-    """Runs cmd; returns (wall seconds, peak RSS MiB, stdout)."""
+    """Runs cmd; returns (wall seconds, peak RSS MiB of that process, stdout)."""
     t0 = time.perf_counter()
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     out = p.stdout.read()
@@ -70,6 +73,9 @@ def worker(kind, path, taus):
     import numpy as np
     import pyarrow.ipc as ipc
 
+    if kind == "make":
+        make_data(path, int(taus))
+        return
     y = ipc.open_file(path).read_all().column("y").to_numpy()
     t0 = time.perf_counter()
     if kind == "welch":
@@ -84,10 +90,13 @@ def worker(kind, path, taus):
     print(json.dumps({"compute_s": time.perf_counter() - t0}))
 
 
-def imunoise_compute_s(out_dir):
+def imunoise_compute_s(out_dir, kind):
+    """The estimator's own time from results.json. Welch streams while the file is read, so its time
+    includes reading and screening the file (read_s + welch_s), which the peers' time does not; the
+    Allan variance runs on the channel in memory (avar_s)."""
     doc = json.loads((out_dir / "results.json").read_text())
     t = doc["files"][0]["timings"]
-    return t["read_s"] + t["welch_s"] + t["avar_s"]
+    return t["read_s"] + t["welch_s"] if kind == "welch" else t["avar_s"]
 
 
 def main():
@@ -106,7 +115,7 @@ def main():
     work = args.keep or pathlib.Path(tempfile.mkdtemp(prefix="imunoise-compare-"))
     work.mkdir(parents=True, exist_ok=True)
     data = work / "y.arrow"
-    make_data(data, n)
+    run_measured([sys.executable, __file__, "--worker", "make", str(data), "--taus", str(n)])
     taus = log_taus(n)
     tau_list = ",".join(str(m) for m in taus)  # rate is 1 Hz: tau in seconds = m
 
@@ -116,12 +125,14 @@ def main():
         ("OADEV octave taus", "oadev_octave", ["avar", str(data), "--taus", "octave"]),
         (f"OADEV {len(taus)} log-spaced taus", "oadev_log", ["avar", str(data), "--taus", tau_list]),
     ]
-    print(f"{n} samples, f64, {os.cpu_count()} cores; imunoise {BIN}")
+    print(f"{n} samples, f64 ({data.stat().st_size / 2**20:.0f} MiB file), {os.cpu_count()} cores; imunoise {BIN}")
     print(f"{'task':34} {'tool':11} {'wall s':>8} {'compute s':>10} {'peak MiB':>9}")
     for label, kind, cli in tasks:
         out_dir = work / f"out-{kind}"
-        wall, rss, _ = run_measured([BIN, *cli, "-o", str(out_dir), "--format", "arrow,json", "--quiet"])
-        ours = imunoise_compute_s(out_dir)
+        wall, rss, _ = run_measured(
+            [BIN, *cli, "-o", str(out_dir), "--format", "arrow,json", "--quiet", "--backend", "cpu"]
+        )
+        ours = imunoise_compute_s(out_dir, kind)
         peer_cmd = [sys.executable, __file__, "--worker", kind, str(data), "--taus", json.dumps(taus)]
         p_wall, p_rss, p_out = run_measured(peer_cmd)
         peer = json.loads(p_out)["compute_s"]

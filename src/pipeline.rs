@@ -257,19 +257,17 @@ fn deviations(
         })
         .collect();
     for &statistic in &work.statistics {
-        // An explicit τ the recording cannot support is an error, not a silently shorter list.
-        if let TauGrid::Explicit(asked) = &grid {
-            let valid = TauGrid::Explicit(asked.clone()).factors(n, statistic);
-            if let Some(&m) = asked.iter().find(|m| !valid.contains(m)) {
-                return Err(too_short(recording, statistic, m, n));
-            }
-        }
         let results =
             backend.deviations(series, recording.rate_hz, &grid, statistic, work.confidence);
         for (slot, result) in out.iter_mut().zip(results) {
+            // An explicit τ the recording cannot support is an error naming it, not a silently
+            // shorter list (the Allan module checks; here it gets the file's name).
             let d = result.map_err(|e| match e {
-                AvarError::TooShort { .. } | AvarError::NoValidTau { .. } => {
-                    too_short(recording, statistic, 1, n)
+                AvarError::TooShort { m, needed, .. } => {
+                    too_short(recording, statistic, m, needed as u64, n)
+                }
+                AvarError::NoValidTau { .. } => {
+                    too_short(recording, statistic, 1, statistic.min_samples(1) as u64, n)
                 }
                 source => Error::Avar {
                     path: recording.path.clone(),
@@ -283,24 +281,14 @@ fn deviations(
     Ok(out)
 }
 
-/// The samples a statistic needs at averaging factor m (2m+1 for the Allan family's second
-/// differences, 3m+1 for Hadamard's third differences).
-fn samples_needed(statistic: Statistic, m: u64) -> u64 {
-    match statistic {
-        Statistic::Hdev => 3 * m + 1,
-        Statistic::Mdev => 3 * m,
-        _ => 2 * m + 1,
-    }
-}
-
-fn too_short(recording: &Recording, statistic: Statistic, m: u64, n: usize) -> Error {
+fn too_short(recording: &Recording, statistic: Statistic, m: u64, needed: u64, n: usize) -> Error {
     InputError::TooShort {
         path: recording.path.clone(),
         what: format!(
             "{statistic} at tau = {} s (m = {m})",
             m as f64 / recording.rate_hz
         ),
-        needed: samples_needed(statistic, m),
+        needed,
         available: n as u64,
     }
     .into()

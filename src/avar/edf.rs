@@ -8,7 +8,7 @@
 //! octave run are reproduced to better than 4e-4 (the simple approximations of [`simple_edf`] are
 //! off by up to 2.4e-3 there), see `tests/integration/avar`.
 //!
-//! The exact form (a sum of squared autocovariances, [`basic_sum`]) is used while it has at most 100
+//! The exact form (a sum of squared autocovariances, the paper's eq. 10) is used while it has at most 100
 //! terms; beyond that the paper's fitted asymptotic forms (tables 1–3) take over, which makes the
 //! EDF cost O(1) per τ however long the recording.
 

@@ -34,14 +34,16 @@ pub(crate) fn strided_sums(s: &[f64], ms: &[u64], order: Order) -> Vec<f64> {
         .map(|&(t, a, b)| {
             let m = ms[t] as usize;
             let x = |i: usize| s[i * m];
-            let mut acc = 0.0f64;
+            // Four accumulators (term i goes to i mod 4) so the additions do not wait on each
+            // other.
+            let mut acc = [0.0f64; 4];
             match order {
                 Order::Second => {
                     let (mut x0, mut x1) = (x(a), x(a + 1));
                     for i in a..b {
                         let x2 = x(i + 2);
                         let v = (x2 - x1) - (x1 - x0);
-                        acc += v * v;
+                        acc[i % 4] += v * v;
                         (x0, x1) = (x1, x2);
                     }
                 }
@@ -51,12 +53,12 @@ pub(crate) fn strided_sums(s: &[f64], ms: &[u64], order: Order) -> Vec<f64> {
                         let x3 = x(i + 3);
                         let (f0, f1, f2) = (x1 - x0, x2 - x1, x3 - x2);
                         let v = (f2 - f1) - (f1 - f0);
-                        acc += v * v;
+                        acc[i % 4] += v * v;
                         (x0, x1, x2) = (x1, x2, x3);
                     }
                 }
             }
-            acc
+            acc.iter().sum::<f64>()
         })
         .collect();
     let mut out = vec![0.0f64; ms.len()];

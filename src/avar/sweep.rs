@@ -9,7 +9,7 @@
 //!   L1/L2; for large m they come from their own windows (the base window is shared by every τ).
 //! - Taus are evaluated four at a time by one kernel that loads S_j once for all of them; octave
 //!   taus in chains (m, 2m, 4m, 8m) that also load each window once (S_{j+2m} for m is S_{j+m'}
-//!   for m' = 2m), see [`kernel`](super::kernel).
+//!   for m' = 2m), see `kernel.rs`.
 //! - Both cores work on neighbouring blocks (a round of eight at a time), so the windows one core
 //!   pulls into the shared L3 are still there when the other needs them.
 //! - Each block's partial sums are stored, then added in block order: the result does not depend

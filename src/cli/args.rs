@@ -174,7 +174,8 @@ pub struct WelchArgs {
 #[command(next_help_heading = "Allan deviation")]
 pub struct AvarFlags {
     /// Statistics, comma-separated: oadev (overlapping Allan), adev (non-overlapping Allan), mdev
-    /// (modified Allan), hdev (overlapping Hadamard, insensitive to a rate ramp).
+    /// (modified Allan), hdev (Hadamard, non-overlapping as NIST SP 1065 and allantools), ohdev
+    /// (overlapping Hadamard). The Hadamard deviations are insensitive to a rate ramp.
     #[arg(
         long = "stat",
         default_value = "oadev",

@@ -28,7 +28,8 @@
 
 use crate::avar::{edf::edf, Deviations, Statistic};
 
-use super::fit::{Correlation, Problem, TERMS};
+use super::correlation::Correlation;
+use super::fit::{Problem, TERMS};
 use super::result::Domain;
 use super::select::select_and_fit;
 use super::{FitError, FitOptions, NoiseFit, Term};
@@ -100,7 +101,14 @@ pub fn fit_avar(d: &Deviations, opts: &FitOptions) -> Result<NoiseFit, FitError>
             Correlation::per_term(&position, CORRELATION)
         }),
     };
-    select_and_fit(&problem, &tau, opts.mask(), opts, Domain::Allan)
+    // Screening: the ramp judged with the scatter of a random walk (see `select.rs`).
+    let mut screen = problem.clone();
+    let (ramp, walk) = (Term::RateRamp.index(), Term::RateRandomWalk.index());
+    for e in &mut screen.edf {
+        e[ramp] = e[walk];
+    }
+    screen.cross.clear();
+    select_and_fit(&problem, &screen, &tau, opts.mask(), opts, Domain::Allan)
 }
 
 /// Variance of the ramp × noise cross term of point i per unit μ_R·μ_noise.

@@ -18,7 +18,8 @@
 //! S_j = diag(√w_ij), w_ij the term's share of the point's standard deviation, which is a valid
 //! correlation matrix whenever each R_j is.
 
-use super::linalg::{cholesky, inverse_spd, solve_lower};
+use super::correlation::{positive_definite_factor, Correlation};
+use super::linalg::{inverse_spd, solve_lower};
 use super::nnls::nnls;
 use super::Term;
 
@@ -39,64 +40,6 @@ pub(crate) struct Problem {
     /// `cross[i]`: variance of point i from the product of a deterministic term (infinite EDF)
     /// and the random ones, per unit μ_det·μ_random (see `avar_fit.rs`); empty: none.
     pub cross: Vec<f64>,
-}
-
-/// The working correlation between points.
-#[derive(Debug, Clone)]
-pub(crate) enum Correlation {
-    /// The same for every model (spectrum bands: set by the window and the segment layout), held
-    /// as its Cholesky factor.
-    Fixed(Vec<Vec<f64>>),
-    /// One correlation matrix per term (Allan variances: the correlation depends on the noise
-    /// type), mixed per point by the terms' shares.
-    PerTerm(Vec<Vec<Vec<f64>>>),
-}
-
-impl Correlation {
-    /// Per-term correlation functions ρ_j(Δ) = a_j + (1 − a_j)·exp(−(|Δ|/ℓ_j)^κ_j) of the distance
-    /// Δ between points at `position` on some axis (log₂ τ for Allan variances), with parameters
-    /// (a_j, ℓ_j, κ_j). Positive definite for 0 ≤ a < 1 and 0 < κ ≤ 2 (a constant plus a member
-    /// of the stable family), so every mixture is a valid correlation matrix. Built once; each
-    /// iteration only mixes them.
-    pub fn per_term(position: &[f64], params: [(f64, f64, f64); TERMS]) -> Correlation {
-        let per_term = params
-            .iter()
-            .map(|&(a, l, k)| {
-                position
-                    .iter()
-                    .map(|&p| {
-                        position
-                            .iter()
-                            .map(|&q| a + (1.0 - a) * (-((p - q).abs() / l).powf(k)).exp())
-                            .collect()
-                    })
-                    .collect()
-            })
-            .collect();
-        Correlation::PerTerm(per_term)
-    }
-
-    /// A fixed correlation matrix; `None` if it is not positive definite.
-    pub fn fixed(r: Vec<Vec<f64>>) -> Option<Correlation> {
-        positive_definite_factor(r).map(Correlation::Fixed)
-    }
-
-    /// The per-term correlations mixed with weights `share[i][j]` (rows summing to 1).
-    fn mix(per_term: &[Vec<Vec<f64>>], share: &[[f64; TERMS]]) -> Vec<Vec<f64>> {
-        let n = share.len();
-        let mut r = vec![vec![0.0; n]; n];
-        for i in 0..n {
-            r[i][i] = 1.0;
-            for k in 0..i {
-                let v: f64 = (0..TERMS)
-                    .map(|j| (share[i][j] * share[k][j]).sqrt() * per_term[j][i][k])
-                    .sum();
-                r[i][k] = v;
-                r[k][i] = v;
-            }
-        }
-        r
-    }
 }
 
 /// A set of terms as a bit mask over [`Term::ALL`](super::Term::ALL).
@@ -154,7 +97,7 @@ impl Problem {
             .map(|i| {
                 let part: [f64; TERMS] = std::array::from_fn(|j| c[j] * self.basis[i][j]);
                 let total: f64 = part.iter().sum();
-                if !(total > 0.0) {
+                if total.is_nan() || total <= 0.0 {
                     // No model here: the most pessimistic single-term EDF.
                     mix.push(None);
                     return self.edf[i].iter().cloned().fold(f64::INFINITY, f64::min);
@@ -321,26 +264,6 @@ impl Problem {
     }
 }
 
-/// Cholesky factor of a correlation matrix. Rounding can make a mixture of nearly singular
-/// correlation matrices (points very close on the axis) indefinite; the off-diagonal part is then
-/// shrunk towards the identity until it factors.
-fn positive_definite_factor(mut r: Vec<Vec<f64>>) -> Option<Vec<Vec<f64>>> {
-    for _ in 0..50 {
-        if let Some(l) = cholesky(&r) {
-            return Some(l);
-        }
-        let n = r.len();
-        for (i, row) in r.iter_mut().enumerate() {
-            for (k, v) in row.iter_mut().enumerate().take(n) {
-                if i != k {
-                    *v *= 0.9;
-                }
-            }
-        }
-    }
-    None
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -371,12 +294,8 @@ mod tests {
             cross: Vec::new(),
         };
         let fit = p.irls(0b11111);
-        for j in 0..TERMS {
-            assert!(
-                (fit.c[j] - truth[j]).abs() <= 1e-9 * truth[j].max(1e-20),
-                "{j}: {:?}",
-                fit.c
-            );
+        for (got, want) in fit.c.iter().zip(&truth) {
+            assert!((got - want).abs() <= 1e-9 * want.max(1e-20), "{:?}", fit.c);
         }
     }
 }

@@ -15,10 +15,10 @@ use crate::avar::chi2_quantile;
 /// (lo, hi, ν) of the coefficient √c for squared estimate `c` with variance `var`, at two-sided
 /// probability `p`.
 pub(crate) fn coefficient_interval(c: f64, var: f64, p: f64) -> (f64, f64, f64) {
-    if !(c > 0.0) {
+    if c.is_nan() || c <= 0.0 {
         return (0.0, 0.0, 0.0);
     }
-    if !(var > 0.0) || !var.is_finite() {
+    if !(var.is_finite() && var > 0.0) {
         return (c.sqrt(), c.sqrt(), f64::INFINITY);
     }
     let nu = 2.0 * c * c / var;

@@ -22,7 +22,7 @@ pub fn lstsq(cols: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
         .fold(0.0, f64::max);
     for k in 0..p {
         let norm = a[k][k..].iter().map(|v| v * v).sum::<f64>().sqrt();
-        if !(norm > 1e-13 * scale) {
+        if norm.is_nan() || norm <= 1e-13 * scale {
             return None;
         }
         let alpha = if a[k][k] > 0.0 { -norm } else { norm };
@@ -65,7 +65,7 @@ pub fn cholesky(m: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
             let s: f64 = (0..j).map(|k| l[i][k] * l[j][k]).sum();
             if i == j {
                 let d = m[i][i] - s;
-                if !(d > 0.0) {
+                if d.is_nan() || d <= 0.0 {
                     return None;
                 }
                 l[i][i] = d.sqrt();
@@ -145,9 +145,9 @@ mod tests {
             vec![0.4, 0.5, 1.0],
         ];
         let inv = inverse_spd(&m).unwrap();
-        for i in 0..3 {
+        for (i, row) in m.iter().enumerate() {
             for j in 0..3 {
-                let p: f64 = (0..3).map(|k| m[i][k] * inv[k][j]).sum();
+                let p: f64 = row.iter().zip(&inv).map(|(a, r)| a * r[j]).sum();
                 assert!((p - f64::from(u8::from(i == j))).abs() < 1e-14);
             }
         }
