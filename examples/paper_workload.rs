@@ -123,7 +123,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     table(
         "ARW (N)",
         Term::RandomWalk,
-        &[(arw_unit, 3), (CoefUnit::DegPerSqrtH, 2)],
+        &[(arw_unit, 4), (CoefUnit::DegPerSqrtH, 3)],
         &ARW,
         &fits,
     );

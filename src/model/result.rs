@@ -19,25 +19,27 @@ pub enum Domain {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Criterion {
-    /// Bayesian (Schwarz): χ² + k·ln n. The default: it is consistent (picks the true set of
-    /// terms with probability → 1 as the data grow) and its penalty, ≈ 3–4 per term for 20–60
-    /// points, keeps absent terms out a few times more often than AIC does.
+    /// Bayesian (Schwarz): −2 ln L + k·ln n. The default, because the question is which physical
+    /// terms are present, not which model predicts best: BIC is consistent (it picks the true set
+    /// of terms with probability → 1 as the data grow), and its penalty of ≈ 2.8–3.7 per term for
+    /// 16–40 points admits an absent term (which can only enter positive) with probability
+    /// ½·P(χ²₁ > ln n) ≈ 2.5–5 %, against ≈ 8 % for AIC's 2.
     #[default]
     Bic,
-    /// Akaike, small-sample corrected: χ² + 2k + 2k(k+1)/(n − k − 1). Better prediction, more
+    /// Akaike, small-sample corrected: −2 ln L + 2k + 2k(k+1)/(n − k − 1). Better prediction, more
     /// false terms.
     Aicc,
 }
 
 impl Criterion {
-    /// Score of a model with generalised χ² `chi2`, `k` terms, on `n` points (lower is better);
-    /// infinite when the model has too many terms for the points.
-    pub fn score(self, chi2: f64, k: usize, n: usize) -> f64 {
+    /// Score of a model with −2·log-likelihood `neg2ll`, `k` terms, on `n` points (lower is
+    /// better); infinite when the model has too many terms for the points.
+    pub fn score(self, neg2ll: f64, k: usize, n: usize) -> f64 {
         let (kf, nf) = (k as f64, n as f64);
         match self {
-            Criterion::Bic if k <= n => chi2 + kf * nf.ln(),
+            Criterion::Bic if k <= n => neg2ll + kf * nf.ln(),
             Criterion::Aicc if k + 1 < n => {
-                chi2 + 2.0 * kf + 2.0 * kf * (kf + 1.0) / (nf - kf - 1.0)
+                neg2ll + 2.0 * kf + 2.0 * kf * (kf + 1.0) / (nf - kf - 1.0)
             }
             _ => f64::INFINITY,
         }

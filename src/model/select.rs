@@ -14,7 +14,7 @@
 //! its place like any other term; once in, it is fitted and given its interval with its own
 //! scatter.
 
-use super::fit::{members, Mask, Problem, SubsetFit, TERMS};
+use super::fit::{members, Mask, Problem, TERMS};
 use super::interval::{coefficient_interval, normal_quantile};
 use super::result::Domain;
 use super::{Candidate, FitError, FitOptions, FitPoint, NoiseFit, Term, TermEstimate, UpperLimit};
@@ -40,26 +40,26 @@ pub(crate) fn select_and_fit(
         .confidence
         .probability()
         .map_err(|e| FitError::InvalidOptions(e.to_string()))?;
-    let mut fits: Vec<(Candidate, Mask, SubsetFit, Vec<f64>)> = (1..=allowed)
+    let mut fits: Vec<(Candidate, Mask)> = (1..=allowed)
         .filter(|&m| m & allowed == m)
         .map(|mask| {
             let fit = screen.irls(mask);
             let idx = members(mask);
             let proper = idx.iter().all(|&j| fit.c[j] > 0.0);
-            let (z, chi2, neg2ll) = screen.likelihood(&fit);
+            let (_, chi2, neg2ll) = screen.likelihood(&fit);
             let candidate = Candidate {
                 terms: idx.iter().map(|&j| Term::ALL[j]).collect(),
                 chi2,
                 score: opts.criterion.score(neg2ll, idx.len(), n),
                 proper,
             };
-            (candidate, mask, fit, z)
+            (candidate, mask)
         })
         .collect();
     fits.sort_by(|a, b| a.0.score.total_cmp(&b.0.score));
     let best = fits
         .iter()
-        .position(|(c, ..)| c.proper && c.score.is_finite())
+        .position(|(c, _)| c.proper && c.score.is_finite())
         .ok_or(FitError::NoSignal)?;
     let mut mask = fits[best].1;
     // Refit on the problem itself; should that clamp a term (a screening/final difference near
@@ -136,7 +136,7 @@ pub(crate) fn select_and_fit(
         dof: n.saturating_sub(idx.len()),
         criterion: opts.criterion,
         confidence: p,
-        candidates: fits.into_iter().map(|(c, ..)| c).collect(),
+        candidates: fits.into_iter().map(|(c, _)| c).collect(),
         points,
     })
 }

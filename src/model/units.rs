@@ -29,6 +29,17 @@ pub enum Sensor {
     Accel,
 }
 
+impl Sensor {
+    /// The sensor a channel of `kind` is, if it is an inertial one.
+    pub fn of_kind(kind: crate::units::Kind) -> Option<Sensor> {
+        match kind {
+            crate::units::Kind::Gyro => Some(Sensor::Gyro),
+            crate::units::Kind::Accel => Some(Sensor::Accel),
+            _ => None,
+        }
+    }
+}
+
 /// A unit of one IEEE coefficient.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[non_exhaustive]

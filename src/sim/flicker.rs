@@ -8,11 +8,12 @@
 //! instead (57 % above 1/f at Nyquist), and one Gauss–Markov process pretending to be flicker is
 //! 1/f nowhere.
 //!
-//! The synthetic series is periodic with period L, and has no power below fs/L. L ≥ 4n (the next
-//! 2^a·3^b·5^c length, which FFTs fast) puts that cut at a quarter of 1/T: the flicker plateau of
-//! the Allan variance is then within 1 % up to τ = T/8 and 3 % at τ = T/2 (the missing band holds
-//! (2/π)B²·(πτf_min)²/2 of it), and the record never sees its own period. DC gets no power (the
-//! 1/f spectrum has none to give it a finite value).
+//! The synthetic series is periodic with period L, and has no power below f_min = fs/L. L ≥ 4n
+//! (the next 2^a·3^b·5^c length, which FFTs fast) puts that cut at 1/(4T), and the record never
+//! sees its own period. The missing band takes ≈ (πτf_min)²/(2 ln 2) of the flicker plateau of the
+//! Allan variance: < 1 % up to τ = T/8, 3 % at T/4 and 11 % at T/2, the last octave point, whose
+//! own scatter (EDF ≈ 2) is far larger. (Any finite simulation cuts a 1/f spectrum somewhere:
+//! its total power diverges at f → 0.) DC gets no power.
 
 use std::f64::consts::PI;
 

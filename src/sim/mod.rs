@@ -8,6 +8,12 @@
 //! temperature, then quantised as IEEE 952 describes (Q). [`simulate`] returns the channels with
 //! their unit, kind and the truth each holds.
 //!
+//! Each sample is the mean of the continuous-time rate over its sample interval, as an IMU that
+//! outputs delta angles or delta velocities delivers: the IEEE Allan variances then hold exactly
+//! from τ = τ₀ on, and the spectra are the IEEE ones through sinc² and folded at Nyquist
+//! ([`Term::psd_sampled_unit`](crate::model::Term::psd_sampled_unit)), which is what the fits
+//! in [`crate::model`] assume.
+//!
 //! Same seed, same samples, on any machine and whatever the thread count: each channel and each
 //! component has its own stream of a small generator of ours ([`rng`]), and the components are
 //! generated in a fixed order.

@@ -119,20 +119,40 @@ mod tests {
     }
 
     #[test]
-    fn gauss_markov_is_stationary_with_the_given_variance() {
-        // Tc = 0.5 s at 100 Hz over 2000 s: about 2000 correlation times, so the sample variance
-        // has σ ≈ √(2·2·Tc/T)= 3 %; bound 10 %.
+    fn gauss_markov_has_its_allan_variance_from_the_first_sample() {
+        // Tc = 5 samples, so interval averaging matters at m = 1. 400 000 samples: the AV at
+        // m = 1, 4, 16 has EDF > 10⁴, σ < 1.5 %; bound 5 %.
+        let fs = 100.0;
         let gm = GaussMarkov {
             sigma: 0.3,
-            tc_s: 0.5,
+            tc_s: 0.05,
         };
-        let mut y = vec![0.0; 200_000];
-        add_gauss_markov(&mut y, 100.0, &gm, &mut Rng::new(4));
-        let var = y.iter().map(|v| v * v).sum::<f64>() / y.len() as f64;
-        assert!((var / 0.09 - 1.0).abs() < 0.1, "{}", var / 0.09);
-        let lag = 50; // one Tc
-        let c: f64 =
-            y.windows(lag + 1).map(|w| w[0] * w[lag]).sum::<f64>() / (y.len() - lag) as f64;
-        assert!((c / var - (-1.0f64).exp()).abs() < 0.06, "{}", c / var);
+        let mut y = vec![0.0; 400_000];
+        add_gauss_markov(&mut y, fs, &gm, &mut Rng::new(4));
+        for m in [1usize, 4, 16] {
+            let ratio = oadev(&y, m) / gm.avar(m as f64 / fs);
+            assert!((ratio - 1.0).abs() < 0.05, "m={m}: {ratio}");
+        }
+    }
+
+    #[test]
+    fn sinusoid_has_its_allan_variance() {
+        // Deterministic: exact but for the partial periods at the ends (< 1e-3 here).
+        let fs = 100.0;
+        let s = SinusoidSpec {
+            amplitude: 2.0,
+            freq_hz: 7.3,
+            phase_rad: 0.4,
+        };
+        let mut y = vec![0.0; 100_000];
+        add_sinusoid(&mut y, fs, &s);
+        let model = crate::model::Sinusoid {
+            amplitude: 2.0,
+            freq_hz: 7.3,
+        };
+        for m in [1usize, 3, 10] {
+            let ratio = oadev(&y, m) / model.avar(m as f64 / fs);
+            assert!((ratio - 1.0).abs() < 1e-3, "m={m}: {ratio}");
+        }
     }
 }
