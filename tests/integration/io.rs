@@ -416,6 +416,17 @@ fn rate_conflicts_are_errors_and_the_rate_source_is_reported() {
     assert!((r.rate_hz / 207.0 - 1.0).abs() < 1e-3, "{}", r.rate_hz);
 }
 
+fn run_err(path: &Path, work: &Work) -> Error {
+    pipeline::run(
+        path,
+        &Inputs::default(),
+        work,
+        &imunoise::estimate::CpuBackend,
+        &Silent,
+    )
+    .expect_err("expected an error")
+}
+
 #[test]
 fn too_short_recordings_say_what_was_needed() {
     let dir = tempfile::tempdir().unwrap();
@@ -432,14 +443,7 @@ fn too_short_recordings_say_what_was_needed() {
         }),
         avar: None,
     };
-    let e = pipeline::run(
-        &path,
-        &Inputs::default(),
-        &work,
-        &imunoise::estimate::CpuBackend,
-        &Silent,
-    )
-    .unwrap_err();
+    let e = run_err(&path, &work);
     assert!(
         matches!(
             e,
@@ -461,14 +465,7 @@ fn too_short_recordings_say_what_was_needed() {
             confidence: imunoise::avar::Confidence::OneSigma,
         }),
     };
-    let e = pipeline::run(
-        &path,
-        &Inputs::default(),
-        &work,
-        &imunoise::estimate::CpuBackend,
-        &Silent,
-    )
-    .unwrap_err();
+    let e = run_err(&path, &work);
     assert!(
         matches!(
             e,

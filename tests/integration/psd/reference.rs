@@ -6,7 +6,7 @@ use proptest::prelude::*;
 use super::common::{assert_psd_close, Rng};
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
+    #![proptest_config(ProptestConfig::with_cases(std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(48)))]
 
     #[test]
     fn fast_path_matches_direct_sums(
@@ -20,6 +20,9 @@ proptest! {
         spectrum in any::<bool>(),
         median in any::<bool>(),
     ) {
+        // A detrended segment that is identically zero (a line through ≤ 2 points, the mean of one
+        // point) leaves only rounding noise in both paths: nothing to compare relatively.
+        prop_assume!(!(detrend == 1 && nperseg <= 2) && !(detrend == 0 && nperseg == 1));
         let n = nperseg + extra;
         let mut rng = Rng::new(seed);
         let x: Vec<f64> = (0..n).map(|i| 0.5 + 1e-3 * i as f64 + rng.normal()).collect();
