@@ -130,21 +130,7 @@ impl WelchAccumulator {
     }
 
     fn check(&self, chunk: &[&[f64]]) -> Result<(), PsdError> {
-        if chunk.len() != self.channels.len() {
-            return Err(PsdError::ChannelMismatch {
-                expected: self.channels.len(),
-                got: chunk.len(),
-            });
-        }
-        let expected = chunk.first().map_or(0, |c| c.len());
-        match chunk.iter().position(|c| c.len() != expected) {
-            Some(channel) => Err(PsdError::LengthMismatch {
-                channel,
-                len: chunk[channel].len(),
-                expected,
-            }),
-            None => Ok(()),
-        }
+        check_chunk(chunk, self.channels.len())
     }
 
     /// Transforms the `nseg` segments complete in `held ++ chunk`, for every channel.
@@ -336,5 +322,25 @@ fn segment<'a>(
     match offset.checked_sub(held.len()) {
         Some(start) => (&chunk[start..start + n], &[]),
         None => (&held[offset..], &chunk[..n - (held.len() - offset)]),
+    }
+}
+
+/// A pushed chunk must have one slice per channel, all of one length. Shared by every Welch sink
+/// (CPU and GPU) so that misuse gives the same error whichever backend runs.
+pub(crate) fn check_chunk(chunk: &[&[f64]], channels: usize) -> Result<(), PsdError> {
+    if chunk.len() != channels {
+        return Err(PsdError::ChannelMismatch {
+            expected: channels,
+            got: chunk.len(),
+        });
+    }
+    let expected = chunk.first().map_or(0, |c| c.len());
+    match chunk.iter().position(|c| c.len() != expected) {
+        Some(channel) => Err(PsdError::LengthMismatch {
+            channel,
+            len: chunk[channel].len(),
+            expected,
+        }),
+        None => Ok(()),
     }
 }

@@ -42,6 +42,7 @@ mod spectrum;
 mod welch;
 mod window;
 
+pub(crate) use accumulator::check_chunk;
 pub use accumulator::WelchAccumulator;
 pub use detrend::Detrend;
 pub use error::PsdError;

@@ -210,23 +210,9 @@ impl GpuWelch {
             .max(self.held.first().map_or(0, Vec::len));
     }
 
-    /// The same checks, in the same order, as the CPU accumulator.
+    /// The CPU accumulator's checks, so that misuse gives the same error on either backend.
     fn check(&self, chunk: &[&[f64]]) -> Result<(), PsdError> {
-        if chunk.len() != self.channels {
-            return Err(PsdError::ChannelMismatch {
-                expected: self.channels,
-                got: chunk.len(),
-            });
-        }
-        let expected = chunk.first().map_or(0, |c| c.len());
-        match chunk.iter().position(|c| c.len() != expected) {
-            Some(channel) => Err(PsdError::LengthMismatch {
-                channel,
-                len: chunk[channel].len(),
-                expected,
-            }),
-            None => Ok(()),
-        }
+        crate::psd::check_chunk(chunk, self.channels)
     }
 
     /// Runs the `nseg` segments complete in `held ++ chunk` on the device and returns their
