@@ -75,6 +75,27 @@ pub fn welch_prepare(
     read_complex(&dev, "work", refs.len() * (p.segments * p.half) as usize)
 }
 
+/// Runs `kernel` alone over `slots` rows of `p.half` complex values, with `work` and `spectrum`
+/// loaded as given: the shared set-up of the single-kernel FFT and power tests.
+fn run_on_rows(
+    ctx: &Arc<GpuContext>,
+    p: &WelchParams,
+    kernel: Kernel,
+    work: &[C32],
+    spectrum: &[C32],
+    slots: usize,
+) -> Result<(WelchDevice, WelchParams), GpuError> {
+    let p = WelchParams {
+        segments: slots as u32,
+        ..*p
+    };
+    let dev = welch_device(ctx, &p, &[0.0], 1, 1)?;
+    dev.load(&p, &[0.0], &[0.0]);
+    dev.load_complex(work, spectrum);
+    dev.run_kernel(kernel, slots)?;
+    Ok((dev, p))
+}
+
 /// `fft_columns` on `work` (`slots` rows of `p.half`), in place.
 pub fn fft_columns(
     ctx: &Arc<GpuContext>,
@@ -82,14 +103,7 @@ pub fn fft_columns(
     work: &[C32],
     slots: usize,
 ) -> Result<Vec<C32>, GpuError> {
-    let p = WelchParams {
-        segments: slots as u32,
-        ..*p
-    };
-    let dev = welch_device(ctx, &p, &[0.0], 1, 1)?;
-    dev.load(&p, &[0.0], &[0.0]);
-    dev.load_complex(work, &[]);
-    dev.run_kernel(Kernel::FftColumns, slots)?;
+    let (dev, _) = run_on_rows(ctx, p, Kernel::FftColumns, work, &[], slots)?;
     read_complex(&dev, "work", work.len())
 }
 
@@ -100,14 +114,7 @@ pub fn fft_rows(
     work: &[C32],
     slots: usize,
 ) -> Result<Vec<C32>, GpuError> {
-    let p = WelchParams {
-        segments: slots as u32,
-        ..*p
-    };
-    let dev = welch_device(ctx, &p, &[0.0], 1, 1)?;
-    dev.load(&p, &[0.0], &[0.0]);
-    dev.load_complex(work, &[]);
-    dev.run_kernel(Kernel::FftRows, slots)?;
+    let (dev, _) = run_on_rows(ctx, p, Kernel::FftRows, work, &[], slots)?;
     read_complex(&dev, "spectrum", work.len())
 }
 
@@ -118,14 +125,7 @@ pub fn welch_power(
     spectrum: &[C32],
     slots: usize,
 ) -> Result<Vec<f32>, GpuError> {
-    let p = WelchParams {
-        segments: slots as u32,
-        ..*p
-    };
-    let dev = welch_device(ctx, &p, &[0.0], 1, 1)?;
-    dev.load(&p, &[0.0], &[0.0]);
-    dev.load_complex(&[], spectrum);
-    dev.run_kernel(Kernel::WelchPower, slots)?;
+    let (dev, p) = run_on_rows(ctx, p, Kernel::WelchPower, &[], spectrum, slots)?;
     let mut power = dev.read_f32("power")?;
     power.truncate(slots * p.bins as usize);
     Ok(power)
