@@ -63,6 +63,7 @@ fn ingest(c: &mut Criterion) {
             bins_per_decade: Some(20),
         }),
         avar: None,
+        fit: None,
     };
     group.bench_function("read_screen_welch_4096", |b| {
         b.iter(|| pipeline::run(&path, &inputs, &welch, &CpuBackend, &Silent).unwrap())

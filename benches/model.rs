@@ -34,6 +34,8 @@ fn spec(n: usize) -> SimSpec {
             gauss_markov: vec![],
             sinusoids: vec![],
             temperature_coefficient: 0.0,
+            steps: vec![],
+            spikes: None,
         }],
         temperature: None,
     }

@@ -58,6 +58,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 gauss_markov: vec![],
                 sinusoids: vec![],
                 temperature_coefficient: 0.0,
+                steps: vec![],
+                spikes: None,
             })
             .collect(),
         temperature: None,

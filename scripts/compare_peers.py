@@ -8,7 +8,7 @@ then runs, each in its own process so that peak memory is its own:
   * imunoise avar   (OADEV, 100 log-spaced taus)             vs allantools.oadev(taus=<the same taus>)
 and prints wall time, the estimator's own time, peak resident memory and the ratios. imunoise is run
 as the release binary, end to end (read the file, screen it, estimate, write Arrow/JSON); its
-compute-only time is taken from the timings in its results.json (Welch: reading + screening + Welch,
+compute-only time is taken from the timings in its report.json (Welch: reading + screening + Welch,
 as they stream together; Allan: the estimator alone). The peers are timed on data already in memory
 (loading excluded). Run it on an otherwise idle machine: both cores are used.
 
@@ -91,10 +91,10 @@ def worker(kind, path, taus):
 
 
 def imunoise_compute_s(out_dir, kind):
-    """The estimator's own time from results.json. Welch streams while the file is read, so its time
+    """The estimator's own time from report.json. Welch streams while the file is read, so its time
     includes reading and screening the file (read_s + welch_s), which the peers' time does not; the
     Allan variance runs on the channel in memory (avar_s)."""
-    doc = json.loads((out_dir / "results.json").read_text())
+    doc = json.loads((out_dir / "report.json").read_text())
     t = doc["files"][0]["timings"]
     return t["read_s"] + t["welch_s"] if kind == "welch" else t["avar_s"]
 

@@ -5,7 +5,9 @@
 //! [`estimate`] (a [`estimate::Backend`]: [`psd`] Welch and [`avar`] Allan family) → [`report`]
 //! (tables and JSON). [`pipeline::run`] takes one recording through all of it; the CLI is a thin
 //! layer over it.
+pub mod analysis;
 pub mod avar;
+pub mod effects;
 pub mod estimate;
 pub mod gpu;
 pub mod io;

@@ -1,4 +1,5 @@
-//! One recording through the stages: io → quality → estimate, in a single pass over the file.
+//! One recording through the stages: io → quality → estimate → model, in a single pass over the
+//! file.
 //!
 //! The Welch estimate streams (memory bounded by segment length × channels); the Allan-family
 //! statistics need whole channels, so when they are asked for the clean samples are also collected
@@ -14,6 +15,8 @@ use crate::estimate::Backend;
 use crate::io::{self, InputError, OpenOptions, Recording};
 use crate::psd::{log_bin, BinnedPsd, Psd, PsdError, WelchPlan};
 use crate::quality::{Cleaner, QualityOptions, QualityReport};
+use crate::analysis::{self, ChannelAnalysis};
+use crate::model::{FitOptions, Sensor};
 use crate::Error;
 
 /// The τ values asked for: a grid of averaging factors, or explicit τ in seconds (converted to
@@ -29,6 +32,9 @@ pub enum TauSpec {
 pub struct Work {
     pub welch: Option<WelchWork>,
     pub avar: Option<AvarWork>,
+    /// Fit the noise model to every inertial channel (needs both estimates, the OADEV among the
+    /// statistics and a binned spectrum; see [`crate::analysis`]).
+    pub fit: Option<FitOptions>,
 }
 
 /// Welch PSD settings.
@@ -76,6 +82,8 @@ pub struct Timings {
     pub read_s: f64,
     pub welch_s: f64,
     pub avar_s: f64,
+    /// The model stage: fits (and the residual analysis).
+    pub fit_s: f64,
 }
 
 /// Memory evidence of the streamed stages.
@@ -100,6 +108,8 @@ pub struct FileResult {
     /// the GPU could not do it), in the backend's words.
     pub backend: String,
     pub backend_notes: Vec<String>,
+    /// The model stage's results, one entry per inertial channel, when [`Work::fit`] asked.
+    pub analysis: Option<Vec<ChannelAnalysis>>,
 }
 
 /// Progress reports, in rows read; the CLI shows them as a bar on a terminal.
@@ -165,7 +175,7 @@ pub fn run(
     consume(last);
     timings.read_s = t_read.elapsed().as_secs_f64();
 
-    let psd = match (welch, &work.welch) {
+    let psd: Option<Vec<ChannelPsd>> = match (welch, &work.welch) {
         (Some(sink), Some(w)) => {
             footprint.welch_peak_buffered_samples = sink.peak_buffered_samples();
             let t = Instant::now();
@@ -189,15 +199,26 @@ pub fn run(
         _ => None,
     };
 
-    let avar = match (series, &work.avar) {
+    let avar: Option<Vec<ChannelDeviations>> = match (&series, &work.avar) {
         (Some(series), Some(a)) => {
             let t = Instant::now();
-            let out = deviations(&recording, &series, a, backend)?;
+            let out = deviations(&recording, series, a, backend)?;
             timings.avar_s = t.elapsed().as_secs_f64();
             Some(out)
         }
         _ => None,
     };
+    let analysis = match (&work.fit, &psd, &avar) {
+        (Some(opts), Some(psd), Some(avar)) => {
+            let t = Instant::now();
+            let out = fit_channels(&recording, psd, avar, opts);
+            timings.fit_s = t.elapsed().as_secs_f64();
+            Some(out)
+        }
+        _ => None,
+    };
+    // The samples are not kept: a batch of many files must not hold them all.
+    drop(series);
     Ok(FileResult {
         recording,
         quality,
@@ -207,7 +228,26 @@ pub fn run(
         footprint,
         backend: backend.describe(),
         backend_notes: backend.take_notes(),
+        analysis,
     })
+}
+
+/// The model stage over the inertial channels (gyro and accel kinds), in channel order.
+fn fit_channels(
+    recording: &Recording,
+    psd: &[ChannelPsd],
+    avar: &[ChannelDeviations],
+    opts: &FitOptions,
+) -> Vec<ChannelAnalysis> {
+    recording
+        .channels
+        .iter()
+        .zip(psd.iter().zip(avar))
+        .filter_map(|(c, (p, d))| {
+            let sensor = Sensor::of_kind(c.kind)?;
+            Some(analysis::analyze_channel(sensor, p, d, opts))
+        })
+        .collect()
 }
 
 fn psd_error(recording: &Recording, quality: &QualityReport, e: PsdError) -> Error {

@@ -27,8 +27,13 @@ pub enum Command {
     Psd(PsdArgs),
     /// Allan-family deviations of every channel with chi-square confidence intervals.
     Avar(AvarArgs),
-    /// PSD and Allan deviation of every channel in one pass over each file.
+    /// The main job: PSD and Allan deviation of every channel in one pass over each file, the IEEE
+    /// noise model (Q, N, B, K, R) fitted to both with confidence intervals, and a report folder
+    /// (report.json, summary.md, plots, tables, Kalibr imu.yaml).
     Analyze(AnalyzeArgs),
+    /// Simulate a static IMU recording from a noise-model specification (JSON file and/or flags)
+    /// and write it as an Arrow IPC file with units, kinds and the sample rate in its metadata.
+    Simulate(SimulateArgs),
 }
 
 #[derive(Debug, Args)]
@@ -74,9 +79,84 @@ pub struct AnalyzeArgs {
     #[command(flatten)]
     pub avar: AvarFlags,
     #[command(flatten)]
+    pub fit: FitFlags,
+    #[command(flatten)]
     pub output: OutputArgs,
     #[command(flatten)]
     pub backend: BackendArgs,
+}
+
+/// Noise-model fit options.
+#[derive(Debug, Args)]
+#[command(next_help_heading = "Noise model")]
+pub struct FitFlags {
+    /// Terms the fit may use, comma-separated: Q (quantisation), N (angle/velocity random walk),
+    /// B (bias instability), K (rate/acceleration random walk), R (rate ramp). Each enters only if
+    /// the information criterion says it earns its place.
+    #[arg(long, default_value = "Q,N,B,K,R", value_delimiter = ',', value_name = "TERM,...")]
+    pub terms: Vec<String>,
+
+    /// Information criterion that admits terms: bic (consistent: finds the terms present) or aicc.
+    #[arg(long, default_value = "bic", value_name = "CRITERION")]
+    pub criterion: String,
+
+    /// Lowest spectrum band used by the fit, Hz (default 4·rate/nperseg).
+    #[arg(long, value_name = "HZ")]
+    pub fit_min_freq: Option<f64>,
+
+    /// Highest spectrum band used by the fit, Hz (default: up to Nyquist).
+    #[arg(long, value_name = "HZ")]
+    pub fit_max_freq: Option<f64>,
+
+    /// Kalibr topic written into imu.yaml.
+    #[arg(long, default_value = "/imu0", value_name = "TOPIC")]
+    pub rostopic: String,
+}
+
+/// What to simulate and where to write it.
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// Specification file (JSON, SI units; see the README). Flags below override its values.
+    #[arg(long, value_name = "FILE")]
+    pub spec: Option<PathBuf>,
+
+    /// Output file (.arrow Arrow IPC file).
+    #[arg(short, long, value_name = "FILE")]
+    pub out: PathBuf,
+
+    /// Sample rate, Hz.
+    #[arg(long, value_name = "HZ")]
+    pub rate: Option<f64>,
+
+    /// Length, seconds.
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+
+    /// Seed of the random streams (same seed, same recording).
+    #[arg(long)]
+    pub seed: Option<u64>,
+
+    /// Without --spec: which sensor the flag-built channels are (gyro or accel).
+    #[arg(long, default_value = "gyro", value_name = "SENSOR")]
+    pub sensor: String,
+
+    /// Without --spec: number of axes (channels named gyro_x, gyro_y, ... or accel_x, ...).
+    #[arg(long, default_value_t = 3, value_name = "N")]
+    pub axes: usize,
+
+    /// Without --spec: a noise coefficient as TERM=VALUE UNIT, e.g. N=0.15deg/sqrt(h),
+    /// B=3deg/h, K=0.5deg/h/sqrt(h), Q=2arcsec, R=10deg/h^2, or for accelerometers
+    /// N=60ug/sqrt(Hz), B=20ug. Repeatable.
+    #[arg(long = "noise", value_name = "TERM=VALUE[UNIT]")]
+    pub noise: Vec<String>,
+
+    /// Store samples as f32 instead of f64.
+    #[arg(long)]
+    pub f32: bool,
+
+    /// No summary line on stderr.
+    #[arg(short, long)]
+    pub quiet: bool,
 }
 
 /// Which files and columns, and how to read them.

@@ -4,14 +4,17 @@ use std::path::PathBuf;
 
 use imunoise::avar::{Confidence, Statistic, TauGrid};
 use imunoise::io::{ColumnOverrides, OpenOptions};
+use imunoise::model::{Criterion, FitOptions, Term};
 use imunoise::pipeline::{AvarWork, Inputs, TauSpec, WelchWork, Work};
-use imunoise::psd::WelchConfig;
+use imunoise::psd::{Scaling, WelchConfig};
 use imunoise::quality::QualityOptions;
 use imunoise::report::Formats;
 use imunoise::units::{Kind, Unit};
 use serde_json::{json, Value};
 
-use super::args::{AvarFlags, BackendArgs, Cli, Command, InputArgs, OutputArgs, WelchArgs};
+use super::args::{
+    AvarFlags, BackendArgs, Cli, Command, FitFlags, InputArgs, OutputArgs, WelchArgs,
+};
 
 /// A usage error: a flag that does not parse or makes no sense (exit code 2).
 #[derive(Debug, thiserror::Error)]
@@ -29,6 +32,8 @@ pub struct OutputConfig {
     pub formats: Formats,
     pub json_stdout: bool,
     pub quiet: bool,
+    /// `analyze`: the topic written into the Kalibr imu.yaml.
+    pub kalibr_topic: Option<String>,
 }
 
 /// The `--backend` asked for.
@@ -64,25 +69,33 @@ pub struct Job {
 }
 
 pub fn job(cli: Cli) -> Result<Job, UsageError> {
-    let (command, input, welch, avar, output, backend) = match cli.command {
-        Command::Info(a) => ("info", a.input, None, None, a.output, a.backend),
-        Command::Psd(a) => ("psd", a.input, Some(a.welch), None, a.output, a.backend),
-        Command::Avar(a) => ("avar", a.input, None, Some(a.avar), a.output, a.backend),
+    let (command, input, welch, avar, fit, output, backend) = match cli.command {
+        Command::Info(a) => ("info", a.input, None, None, None, a.output, a.backend),
+        Command::Psd(a) => ("psd", a.input, Some(a.welch), None, None, a.output, a.backend),
+        Command::Avar(a) => ("avar", a.input, None, Some(a.avar), None, a.output, a.backend),
         Command::Analyze(a) => {
-            let (w, v) = (Some(a.welch), Some(a.avar));
-            ("analyze", a.input, w, v, a.output, a.backend)
+            let (w, v, f) = (Some(a.welch), Some(a.avar), Some(a.fit));
+            ("analyze", a.input, w, v, f, a.output, a.backend)
         }
+        Command::Simulate(_) => return Err(usage("simulate is not a file-processing command")),
     };
     let mut options = serde_json::Map::new();
     let inputs = inputs(&input, &mut options)?;
     let welch = welch.map(|w| welch_work(&w, &mut options)).transpose()?;
-    let avar = avar.map(|a| avar_work(&a, &mut options)).transpose()?;
+    let mut avar = avar.map(|a| avar_work(&a, &mut options)).transpose()?;
+    let kalibr_topic = fit.as_ref().map(|f| f.rostopic.clone());
+    let fit = match fit {
+        Some(f) => Some(fit_options(&f, welch.as_ref(), avar.as_mut(), &mut options)?),
+        None => None,
+    };
+    let mut output = output_config(&output)?;
+    output.kalibr_topic = kalibr_topic;
     Ok(Job {
         command,
         files: input.files,
         inputs,
-        work: Work { welch, avar },
-        output: output_config(&output)?,
+        work: Work { welch, avar, fit },
+        output,
         backend: backend_choice(&backend)?,
         options: Value::Object(options),
     })
@@ -306,5 +319,76 @@ fn output_config(a: &OutputArgs) -> Result<OutputConfig, UsageError> {
         formats,
         json_stdout: a.json,
         quiet: a.quiet,
+        kalibr_topic: None,
     })
+}
+
+/// The fit's options; the estimates it needs are checked (or added) here, before any file is read:
+/// the Allan fit uses the OADEV (added to the statistics when not asked for), the spectrum fit a
+/// density-scaled, log-binned spectrum.
+fn fit_options(
+    f: &FitFlags,
+    welch: Option<&WelchWork>,
+    avar: Option<&mut AvarWork>,
+    options: &mut serde_json::Map<String, Value>,
+) -> Result<FitOptions, UsageError> {
+    let terms: Vec<Term> = f
+        .terms
+        .iter()
+        .map(|t| t.parse::<Term>().map_err(|e| usage(format!("--terms: {e}"))))
+        .collect::<Result<_, _>>()?;
+    if terms.is_empty() {
+        return Err(usage("--terms: name at least one term"));
+    }
+    let criterion: Criterion = f
+        .criterion
+        .parse()
+        .map_err(|e| usage(format!("--criterion: {e}")))?;
+    for (flag, v) in [("--fit-min-freq", f.fit_min_freq), ("--fit-max-freq", f.fit_max_freq)] {
+        if let Some(v) = v {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(usage(format!("{flag} {v}: must be a positive number of Hz")));
+            }
+        }
+    }
+    if let (Some(lo), Some(hi)) = (f.fit_min_freq, f.fit_max_freq) {
+        if lo >= hi {
+            return Err(usage(format!("--fit-min-freq {lo} must be below --fit-max-freq {hi}")));
+        }
+    }
+    if let Some(w) = welch {
+        if w.bins_per_decade.is_none() {
+            return Err(usage(
+                "analyze fits the log-binned spectrum: --bins-per-decade must be at least 1",
+            ));
+        }
+        if w.plan.config().scaling != Scaling::Density {
+            return Err(usage("analyze fits a density: --scaling must be density"));
+        }
+    }
+    let mut confidence = Confidence::OneSigma;
+    if let Some(a) = avar {
+        if !a.statistics.contains(&Statistic::Oadev) {
+            a.statistics.insert(0, Statistic::Oadev);
+        }
+        confidence = a.confidence;
+    }
+    let opts = FitOptions {
+        terms,
+        criterion,
+        confidence,
+        min_freq_hz: f.fit_min_freq,
+        max_freq_hz: f.fit_max_freq,
+        ..FitOptions::default()
+    };
+    options.insert(
+        "fit".into(),
+        json!({
+            "terms": opts.terms.iter().map(|t| t.symbol()).collect::<Vec<_>>(),
+            "criterion": opts.criterion,
+            "min_freq_hz": opts.min_freq_hz, "max_freq_hz": opts.max_freq_hz,
+            "correlated_points": opts.correlated_points,
+        }),
+    );
+    Ok(opts)
 }

@@ -4,6 +4,7 @@
 mod args;
 mod config;
 mod run;
+mod simulate;
 
 use clap::Parser;
 
@@ -22,6 +23,15 @@ pub fn main() -> i32 {
             return code;
         }
     };
+    if let args::Command::Simulate(a) = &cli.command {
+        return match simulate::job(a) {
+            Ok(job) => simulate::run(&job),
+            Err(e) => {
+                eprintln!("imunoise: {e}");
+                run::EXIT_FATAL
+            }
+        };
+    }
     match config::job(cli) {
         Ok(job) => run::run(&job),
         Err(e) => {

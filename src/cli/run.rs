@@ -164,7 +164,7 @@ pub fn run(job: &Job) -> i32 {
     }
     let mut ok: Vec<FileResult> = Vec::new();
     let mut entries = Vec::new();
-    let mut failed = 0;
+    let mut failures: Vec<(String, String)> = Vec::new();
     for path in &job.files {
         match pipeline::run(path, &job.inputs, &job.work, backend, &bar) {
             Ok(r) => {
@@ -178,7 +178,7 @@ pub fn run(job: &Job) -> i32 {
                 ok.push(r);
             }
             Err(e) => {
-                failed += 1;
+                failures.push((path.display().to_string(), e.to_string()));
                 bar.line(&format!("error {e}"));
                 entries.push(report::error_json(path, &e));
             }
@@ -187,17 +187,19 @@ pub fn run(job: &Job) -> i32 {
     if let Some(b) = &bar.bar {
         b.finish_and_clear();
     }
+    let failed = failures.len();
+    let elapsed_s = started.elapsed().as_secs_f64();
     let doc = report::document(
         job.command,
         &backend.describe(),
         job.options.clone(),
         entries,
-        started.elapsed().as_secs_f64(),
+        elapsed_s,
     );
     let written = if job.output.json_stdout {
         print_json(&doc)
     } else {
-        write_outputs(job, &ok, &doc)
+        write_outputs(job, &ok, &failures, &doc, elapsed_s)
     };
     if let Err(e) = written {
         eprintln!("imunoise: {e}");
@@ -234,10 +236,34 @@ fn print_json(doc: &serde_json::Value) -> Result<(), OutputError> {
     }
 }
 
-fn write_outputs(job: &Job, ok: &[FileResult], doc: &serde_json::Value) -> Result<(), OutputError> {
+fn write_outputs(
+    job: &Job,
+    ok: &[FileResult],
+    failures: &[(String, String)],
+    doc: &serde_json::Value,
+    elapsed_s: f64,
+) -> Result<(), OutputError> {
     let dir = &job.output.dir;
     let refs: Vec<&FileResult> = ok.iter().collect();
     let formats = job.output.formats;
+    if job.work.fit.is_some() {
+        report::write_table(dir, "coefficients", &report::coefficients_table(&refs), formats)?;
+        let md = report::summary_markdown(&refs, failures, elapsed_s);
+        report::write_atomically(&dir.join("summary.md"), |w| w.write_all(md.as_bytes()))?;
+        let topic = job.output.kalibr_topic.as_deref().unwrap_or("/imu0");
+        for (r, folder) in ok.iter().zip(per_file_folders(ok)) {
+            let Some(analysis) = &r.analysis else { continue };
+            let folder = dir.join(folder);
+            std::fs::create_dir_all(&folder).map_err(|e| OutputError::new(&folder, e))?;
+            let yaml = report::imu_yaml(
+                &r.recording.path.display().to_string(),
+                r.recording.rate_hz,
+                topic,
+                analysis,
+            );
+            report::write_atomically(&folder.join("imu.yaml"), |w| w.write_all(yaml.as_bytes()))?;
+        }
+    }
     if job.work.welch.is_some() {
         report::write_table(dir, "psd", &report::psd_table(&refs), formats)?;
         report::write_table(dir, "psd_binned", &report::psd_binned_table(&refs), formats)?;
@@ -246,7 +272,29 @@ fn write_outputs(job: &Job, ok: &[FileResult], doc: &serde_json::Value) -> Resul
         report::write_table(dir, "avar", &report::avar_table(&refs), formats)?;
     }
     if formats.json {
-        report::write_json(&dir.join("results.json"), doc)?;
+        report::write_json(&dir.join("report.json"), doc)?;
     }
     Ok(())
+}
+
+/// One output sub-folder per file, named after the file's stem; a stem seen before gets `-2`,
+/// `-3`, … so that two `imu.arrow` from different folders do not overwrite each other.
+fn per_file_folders(ok: &[FileResult]) -> Vec<String> {
+    let mut seen = std::collections::HashMap::<String, usize>::new();
+    ok.iter()
+        .map(|r| {
+            let stem = r
+                .recording
+                .path
+                .file_stem()
+                .map_or("recording".into(), |s| s.to_string_lossy().into_owned());
+            let count = seen.entry(stem.clone()).or_insert(0);
+            *count += 1;
+            if *count == 1 {
+                stem
+            } else {
+                format!("{stem}-{count}")
+            }
+        })
+        .collect()
 }

@@ -10,6 +10,7 @@ mod channels;
 mod convert;
 mod error;
 mod format;
+mod write;
 
 use std::path::{Path, PathBuf};
 
@@ -20,6 +21,7 @@ pub use batches::{split_header_unit, DEFAULT_BATCH_ROWS};
 pub use channels::{ChannelSpec, ColumnOverrides, TimeEncoding, TimeSpec};
 pub use error::InputError;
 pub use format::Format;
+pub use write::{write_recording, ColumnOut, StoredAs};
 
 use batches::Batches;
 use convert::{append_samples, TimeDecoder};

@@ -42,6 +42,8 @@
 //!         gauss_markov: vec![],
 //!         sinusoids: vec![],
 //!         temperature_coefficient: 0.0,
+//!         steps: vec![],
+//!         spikes: None,
 //!     }],
 //!     temperature: None,
 //! };

@@ -143,3 +143,15 @@ impl NoiseFit {
         c
     }
 }
+
+impl std::str::FromStr for Criterion {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Criterion, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "bic" => Ok(Criterion::Bic),
+            "aicc" => Ok(Criterion::Aicc),
+            _ => Err(format!("unknown criterion {s:?}: expected bic or aicc")),
+        }
+    }
+}

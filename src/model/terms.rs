@@ -347,3 +347,16 @@ mod tests {
         assert!((c.avar(2.0) - expected).abs() < 1e-12);
     }
 }
+
+impl std::str::FromStr for Term {
+    type Err = String;
+
+    /// A term by its symbol (`Q`, `N`, `B`, `K`, `R`, any case).
+    fn from_str(s: &str) -> Result<Term, String> {
+        Term::ALL
+            .iter()
+            .copied()
+            .find(|t| t.symbol().eq_ignore_ascii_case(s.trim()))
+            .ok_or_else(|| format!("unknown term {s:?}: expected one of Q, N, B, K, R"))
+    }
+}

@@ -285,6 +285,27 @@ impl CoefUnit {
         row(self).4[0]
     }
 
+    /// The ASCII label written in reports and tables (`deg/sqrt(h)`, `ug/sqrt(Hz)`, …); it parses
+    /// back with [`FromStr`].
+    pub fn label(self) -> String {
+        match serde_json::to_value(self) {
+            Ok(serde_json::Value::String(s)) => s,
+            _ => self.as_str().to_string(),
+        }
+    }
+
+    /// The label with typographic symbols for humans (`°/√h`, `µg/√Hz`, `m/s²`).
+    pub fn pretty(self) -> String {
+        self.label()
+            .replace("sqrt(", "√")
+            .replace(')', "")
+            .replace('(', "")
+            .replace("deg", "°")
+            .replace("ug", "µg")
+            .replace("^2", "²")
+            .replace("^3", "³")
+    }
+
     /// `value` in this unit, in SI.
     pub fn to_si(self, value: f64) -> f64 {
         value * self.si_factor()

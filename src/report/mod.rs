@@ -1,4 +1,5 @@
-//! Outputs: long tables (Arrow IPC, CSV) and one JSON document per run, all written atomically.
+//! Outputs: long tables (Arrow IPC, CSV), one JSON document per run (`report.json`), and for
+//! `analyze` the Markdown summary, plots and Kalibr `imu.yaml`; all written atomically.
 //!
 //! The JSON document has the same shape for every command (`info`, `psd`, `avar`, `analyze`): a header
 //! (schema version, tool version, command, backend, options), one entry per input file with either its
@@ -6,6 +7,9 @@
 //! `schema/imunoise-output.schema.json`; the README describes it.
 
 mod atomic;
+mod kalibr;
+mod model;
+mod summary;
 mod table;
 
 use std::path::Path;
@@ -13,6 +17,9 @@ use std::path::Path;
 use serde_json::{json, Value};
 
 pub use atomic::{write_atomically, OutputError};
+pub use kalibr::imu_yaml;
+pub use model::{analysis_json, coefficients_table, units_of};
+pub use summary::{sig4, summary_markdown};
 pub use table::{Column, Table};
 
 use crate::avar::Deviations;
@@ -23,7 +30,7 @@ use crate::units::Unit;
 use crate::Error;
 
 /// Version of the JSON document and table layout; bumped on any incompatible change.
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// Output formats for tables and the document.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -239,6 +246,9 @@ pub fn file_json(r: &FileResult) -> Value {
                 v
             })
             .collect();
+    }
+    if let Some(analysis) = &r.analysis {
+        entry["analysis"] = analysis.iter().map(analysis_json).collect();
     }
     if let Some(avar) = &r.avar {
         entry["avar"] = avar

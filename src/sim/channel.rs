@@ -6,7 +6,7 @@ use super::flicker::flicker;
 use super::processes::{add_gauss_markov, add_ramp, add_random_walk, add_sinusoid, add_white};
 use super::quantize::quantize;
 use super::rng::Rng;
-use super::spec::ChannelSpec;
+use super::spec::{ChannelSpec, StepSpec};
 
 /// What a simulated channel truly contains, in the model's SI types: what a fit should find.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -17,6 +17,12 @@ pub struct ChannelTruth {
     pub sinusoids: Vec<Sinusoid>,
     /// Rate per °C of the true temperature's rise above its start.
     pub temperature_coefficient: f64,
+    /// Planted bias steps (not in [`ChannelTruth::avar`]).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub steps: Vec<StepSpec>,
+    /// Sample indices of the planted spikes, ascending (not in [`ChannelTruth::avar`]).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub spike_indices: Vec<usize>,
 }
 
 impl ChannelTruth {
@@ -34,6 +40,8 @@ impl ChannelTruth {
                 })
                 .collect(),
             temperature_coefficient: spec.temperature_coefficient,
+            steps: spec.steps.clone(),
+            spike_indices: Vec::new(),
         }
     }
 
@@ -54,6 +62,7 @@ enum Component {
     RandomWalk,
     Flicker,
     Quantisation,
+    Spikes = 50,
     GaussMarkov = 100,
 }
 
@@ -113,9 +122,43 @@ pub fn simulate_channel(
             }
         }
     }
+    for st in &spec.steps {
+        add_step(&mut y, rate_hz, st);
+    }
     if c.q > 0.0 {
         let start = rng_for(channel_seed, Component::Quantisation, 0).uniform();
         quantize(&mut y, rate_hz, c.q, start);
     }
+    for (i, sign) in spikes(spec, n, channel_seed) {
+        y[i] += sign * spec.spikes.map_or(0.0, |s| s.size);
+    }
     y
+}
+
+/// A rate step: sample i (interval [i, i+1)/fs) gets the share of its interval after `time_s`.
+fn add_step(y: &mut [f64], rate_hz: f64, st: &StepSpec) {
+    let at = st.time_s * rate_hz;
+    for (i, v) in y.iter_mut().enumerate().skip(at.floor() as usize) {
+        *v += st.size * (i as f64 + 1.0 - at).clamp(0.0, 1.0);
+    }
+}
+
+/// Positions (distinct, ascending) and signs of the planted spikes; empty without a spike spec,
+/// and then no random number is drawn.
+pub(crate) fn spikes(spec: &ChannelSpec, n: usize, channel_seed: u64) -> Vec<(usize, f64)> {
+    let Some(sp) = spec.spikes.filter(|s| s.count > 0 && n > 0) else {
+        return Vec::new();
+    };
+    let mut rng = Rng::stream(
+        channel_seed,
+        (Component::Spikes as u64).wrapping_add(sp.seed_offset.wrapping_mul(0x9E37_79B9)),
+    );
+    let count = sp.count.min(n);
+    let mut taken = std::collections::BTreeMap::new();
+    while taken.len() < count {
+        let i = ((rng.uniform() * n as f64) as usize).min(n - 1);
+        let sign = if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
+        taken.entry(i).or_insert(sign);
+    }
+    taken.into_iter().collect()
 }

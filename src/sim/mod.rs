@@ -33,6 +33,8 @@
 //!         gauss_markov: vec![],
 //!         sinusoids: vec![],
 //!         temperature_coefficient: 0.0,
+//!         steps: vec![],
+//!         spikes: None,
 //!     }],
 //!     temperature: None,
 //! };
@@ -60,7 +62,7 @@ use crate::units::{Kind, Unit};
 pub use channel::ChannelTruth;
 pub use error::SimError;
 pub use flicker::shaped_noise;
-pub use spec::{ChannelSpec, SimSpec, SinusoidSpec, TemperatureSpec};
+pub use spec::{ChannelSpec, SimSpec, SinusoidSpec, SpikeSpec, StepSpec, TemperatureSpec};
 
 /// A simulated recording.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -147,7 +149,13 @@ pub fn simulate(spec: &SimSpec) -> Result<Simulation, SimError> {
                 kind,
                 unit,
                 samples,
-                truth: Some(ChannelTruth::of(ch)),
+                truth: Some(ChannelTruth {
+                    spike_indices: channel::spikes(ch, n, seed)
+                        .into_iter()
+                        .map(|(i, _)| i)
+                        .collect(),
+                    ..ChannelTruth::of(ch)
+                }),
             }
         })
         .collect();
@@ -198,6 +206,8 @@ mod tests {
                         phase_rad: 0.0,
                     }],
                     temperature_coefficient: 1e-4,
+                    steps: vec![],
+                    spikes: None,
                 },
                 ChannelSpec {
                     name: "ax".into(),
@@ -210,6 +220,8 @@ mod tests {
                     gauss_markov: vec![],
                     sinusoids: vec![],
                     temperature_coefficient: 0.0,
+                    steps: vec![],
+                    spikes: None,
                 },
             ],
             temperature: Some(TemperatureSpec {

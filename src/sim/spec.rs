@@ -53,6 +53,35 @@ pub struct ChannelSpec {
     /// Rate drift per °C of temperature rise above the start (rad/s/°C or m/s²/°C).
     #[serde(default)]
     pub temperature_coefficient: f64,
+    /// Bias steps: the rate jumps by `size` at `time_s` and stays (non-stationarity the IEEE model
+    /// lacks; what `effects::time::step` looks for).
+    #[serde(default)]
+    pub steps: Vec<StepSpec>,
+    /// Single-sample output glitches (what `effects::time::spikes` looks for).
+    #[serde(default)]
+    pub spikes: Option<SpikeSpec>,
+}
+
+/// A bias step: from `time_s` on the rate is higher by `size` (rad/s or m/s²). A step inside a
+/// sample interval enters that sample pro rata (samples are interval means).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StepSpec {
+    pub time_s: f64,
+    pub size: f64,
+}
+
+/// `count` single-sample spikes of absolute amplitude `size` (rad/s or m/s²) and random sign at
+/// distinct random samples, added to the output after quantisation (a glitch of the output, not
+/// of the rate). Positions and signs come from the channel's own stream (`seed_offset` picks
+/// another draw), so the other components' samples are unchanged.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpikeSpec {
+    pub count: usize,
+    pub size: f64,
+    #[serde(default)]
+    pub seed_offset: u64,
 }
 
 /// A sinusoidal rate A·sin(2πf₀t + φ).
@@ -165,6 +194,16 @@ impl SimSpec {
                         freq_hz: s.freq_hz,
                         nyquist_hz,
                     });
+                }
+            }
+            for st in &ch.steps {
+                non_negative("steps.time_s", st.time_s)?;
+                finite("steps.size", st.size)?;
+            }
+            if let Some(sp) = &ch.spikes {
+                finite("spikes.size", sp.size)?;
+                if sp.count > self.samples() {
+                    return Err(bad("spikes.count", sp.count as f64));
                 }
             }
             if ch.temperature_coefficient != 0.0 && self.temperature.is_none() {

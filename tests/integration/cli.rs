@@ -95,11 +95,11 @@ fn analyze_writes_every_table_and_the_document_atomically() {
             "psd.csv",
             "psd_binned.arrow",
             "psd_binned.csv",
-            "results.json"
+            "report.json"
         ]
     );
     let doc: Value =
-        serde_json::from_slice(&std::fs::read(out_dir.join("results.json")).unwrap()).unwrap();
+        serde_json::from_slice(&std::fs::read(out_dir.join("report.json")).unwrap()).unwrap();
     let psd = &doc["files"][0]["psd"][0];
     assert_eq!(psd["channel"], "gyro_x");
     assert_eq!(psd["unit"], "(rad/s)^2/Hz");
@@ -177,7 +177,7 @@ fn one_bad_file_in_a_batch_does_not_stop_the_others() {
     );
     assert!(stderr.contains("missing.csv: file not found"), "{stderr}");
     let doc: Value =
-        serde_json::from_slice(&std::fs::read(dir.path().join("out/results.json")).unwrap())
+        serde_json::from_slice(&std::fs::read(dir.path().join("out/report.json")).unwrap())
             .unwrap();
     assert_eq!(doc["summary"]["failed"], 2);
     assert_eq!(doc["summary"]["ok"], 1);

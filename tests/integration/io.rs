@@ -442,6 +442,7 @@ fn too_short_recordings_say_what_was_needed() {
             bins_per_decade: None,
         }),
         avar: None,
+        fit: None,
     };
     let e = run_err(&path, &work);
     assert!(
@@ -464,6 +465,7 @@ fn too_short_recordings_say_what_was_needed() {
             taus: imunoise::pipeline::TauSpec::Seconds(vec![0.1, 2.0]),
             confidence: imunoise::avar::Confidence::OneSigma,
         }),
+        fit: None,
     };
     let e = run_err(&path, &work);
     assert!(

@@ -27,6 +27,8 @@ fn record(c: Coefficients, fs: f64, n: usize, seed: u64) -> Vec<f64> {
             gauss_markov: vec![],
             sinusoids: vec![],
             temperature_coefficient: 0.0,
+            steps: vec![],
+            spikes: None,
         }],
         temperature: None,
     };

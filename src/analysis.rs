@@ -1,0 +1,103 @@
+//! The model stage of `analyze`: for every inertial channel of a recording, the IEEE noise model
+//! fitted to its overlapping Allan variance and, separately, to its log-binned Welch spectrum, and
+//! the term-by-term agreement of the two.
+//!
+//! Temperature and aux channels are not fitted: they are regressors for the residual analysis, not
+//! sensors. A channel whose kind is not known (no `kind` metadata and a unit that implies none) is
+//! not fitted either: the coefficients' units depend on the sensor.
+//!
+//! A fit that fails (too few τ points, a constant channel) does not fail the file: the channel's
+//! entry carries the reason and the other channels go on.
+
+use serde::Serialize;
+
+use crate::avar::{Deviations, Statistic};
+use crate::model::{compare, fit_avar, fit_psd, FitError, FitOptions, NoiseFit, Sensor, TermComparison};
+use crate::pipeline::{ChannelDeviations, ChannelPsd};
+
+/// One channel's fits.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelAnalysis {
+    pub channel: String,
+    pub sensor: Sensor,
+    /// IEEE model fitted to the overlapping Allan variance.
+    #[serde(serialize_with = "outcome")]
+    pub allan: Result<NoiseFit, FitError>,
+    /// IEEE model fitted to the log-binned Welch spectrum.
+    #[serde(serialize_with = "outcome")]
+    pub spectrum: Result<NoiseFit, FitError>,
+    /// Spectrum- against Allan-derived value per term, when both fits succeeded.
+    pub comparison: Vec<TermComparison>,
+}
+
+fn outcome<S: serde::Serializer>(r: &Result<NoiseFit, FitError>, s: S) -> Result<S::Ok, S::Error> {
+    #[derive(Serialize)]
+    #[serde(tag = "status", rename_all = "snake_case")]
+    enum Outcome<'a> {
+        Ok {
+            #[serde(flatten)]
+            fit: &'a NoiseFit,
+        },
+        Failed {
+            reason: String,
+        },
+    }
+    match r {
+        Ok(fit) => Outcome::Ok { fit }.serialize(s),
+        Err(e) => Outcome::Failed {
+            reason: e.to_string(),
+        }
+        .serialize(s),
+    }
+}
+
+impl ChannelAnalysis {
+    /// The Allan fit, if it succeeded.
+    pub fn allan_fit(&self) -> Option<&NoiseFit> {
+        self.allan.as_ref().ok()
+    }
+
+    /// The spectrum fit, if it succeeded.
+    pub fn spectrum_fit(&self) -> Option<&NoiseFit> {
+        self.spectrum.as_ref().ok()
+    }
+}
+
+/// Fits one channel from its estimates: the OADEV of `deviations` and the binned spectrum of `psd`.
+pub fn analyze_channel(
+    sensor: Sensor,
+    psd: &ChannelPsd,
+    deviations: &ChannelDeviations,
+    opts: &FitOptions,
+) -> ChannelAnalysis {
+    let allan = oadev(deviations)
+        .ok_or(FitError::InvalidOptions(
+            "the Allan fit needs the overlapping Allan variance (oadev)".into(),
+        ))
+        .and_then(|d| fit_avar(d, opts));
+    let spectrum = match &psd.binned {
+        Some(binned) => fit_psd(&psd.psd, binned, opts),
+        None => Err(FitError::InvalidOptions(
+            "the spectrum fit needs the log-binned spectrum (bins per decade > 0)".into(),
+        )),
+    };
+    let comparison = match (&allan, &spectrum) {
+        (Ok(a), Ok(s)) => compare(a, s),
+        _ => Vec::new(),
+    };
+    ChannelAnalysis {
+        channel: psd.channel.clone(),
+        sensor,
+        allan,
+        spectrum,
+        comparison,
+    }
+}
+
+/// The overlapping Allan variance among a channel's statistics.
+pub fn oadev(deviations: &ChannelDeviations) -> Option<&Deviations> {
+    deviations
+        .statistics
+        .iter()
+        .find(|d| d.statistic == Statistic::Oadev)
+}

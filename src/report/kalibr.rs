@@ -1,0 +1,105 @@
+//! Kalibr's `imu.yaml`: the continuous-time noise densities of a camera–IMU calibration, from the
+//! fitted model.
+//!
+//! Kalibr (and OpenVINS, VINS-Fusion, which read the same file) model each axis as white noise
+//! plus a random-walk bias and take *continuous-time* densities: `*_noise_density` is N
+//! (rad/s/√Hz, m/s²/√Hz) and `*_random_walk` is K (rad/s²/√Hz, m/s³/√Hz); Kalibr itself turns them
+//! into discrete-time standard deviations with √rate and 1/√rate. Choices, written into the file:
+//! - one value per sensor, the worst (largest) axis, because the file has one number; every axis
+//!   is listed in a comment;
+//! - values from the Allan-variance fit (the habit of the field), the spectrum fit where the
+//!   Allan fit failed;
+//! - a random walk the fit did not admit is given as its upper limit, marked, rather than 0: a
+//!   filter told "no bias walk" trusts its bias forever;
+//! - the bias instability has no place in Kalibr's model; it is listed per axis for reference.
+
+use std::fmt::Write;
+
+use crate::analysis::ChannelAnalysis;
+use crate::model::{NoiseFit, Sensor, Term};
+
+use super::summary::sig4;
+
+/// The value Kalibr gets for `term` of one channel: (SI value, is an upper limit, domain).
+fn value_of(a: &ChannelAnalysis, term: Term) -> Option<(f64, bool, &'static str)> {
+    let pick = |fit: &NoiseFit, domain| {
+        fit.get(term)
+            .map(|e| (e.value, false, domain))
+            .or_else(|| {
+                fit.upper_limits
+                    .iter()
+                    .find(|u| u.term == term)
+                    .map(|u| (u.upper, true, domain))
+            })
+    };
+    a.allan_fit()
+        .and_then(|f| pick(f, "AV"))
+        .or_else(|| a.spectrum_fit().and_then(|f| pick(f, "PSD")))
+}
+
+fn describe(v: Option<(f64, bool, &'static str)>) -> String {
+    match v {
+        Some((x, upper, domain)) => format!(
+            "{}{x:.4e} ({domain})",
+            if upper { "< " } else { "" }
+        ),
+        None => "not available".into(),
+    }
+}
+
+/// The file's text for the channels of one recording.
+pub fn imu_yaml(source: &str, rate_hz: f64, topic: &str, analysis: &[ChannelAnalysis]) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "# Kalibr IMU noise model written by imunoise {}", env!("CARGO_PKG_VERSION"));
+    let _ = writeln!(out, "# source: {source}");
+    let _ = writeln!(out, "#");
+    let _ = writeln!(out, "# Convention: CONTINUOUS-TIME densities, as Kalibr expects:");
+    let _ = writeln!(out, "#   *_noise_density = N (angle/velocity random walk): gyro rad/s/sqrt(Hz), accel m/s^2/sqrt(Hz)");
+    let _ = writeln!(out, "#   *_random_walk   = K (rate/acceleration random walk): gyro rad/s^2/sqrt(Hz), accel m/s^3/sqrt(Hz)");
+    let _ = writeln!(out, "#   (Kalibr multiplies the density by sqrt(update_rate) and the random walk by");
+    let _ = writeln!(out, "#   1/sqrt(update_rate) to get discrete-time standard deviations.)");
+    let _ = writeln!(out, "# Each value is the worst (largest) axis of the Allan-variance fit (spectrum fit");
+    let _ = writeln!(out, "# where that failed). A random walk the fit did not find significant is given as");
+    let _ = writeln!(out, "# its upper limit (marked '<' below). Inflate for your filter as you see fit.");
+    let mut keys = Vec::new();
+    for (sensor, prefix) in [(Sensor::Gyro, "gyroscope"), (Sensor::Accel, "accelerometer")] {
+        let channels: Vec<&ChannelAnalysis> =
+            analysis.iter().filter(|a| a.sensor == sensor).collect();
+        let _ = writeln!(out, "#\n# {prefix} axes:");
+        if channels.is_empty() {
+            let _ = writeln!(out, "#   none in this recording; {prefix}_* keys omitted");
+            continue;
+        }
+        for a in &channels {
+            let _ = writeln!(
+                out,
+                "#   {}: N = {}, K = {}, B = {}",
+                a.channel,
+                describe(value_of(a, Term::RandomWalk)),
+                describe(value_of(a, Term::RateRandomWalk)),
+                describe(value_of(a, Term::BiasInstability)),
+            );
+        }
+        for (term, key) in [(Term::RandomWalk, "noise_density"), (Term::RateRandomWalk, "random_walk")] {
+            let worst = channels
+                .iter()
+                .filter_map(|a| value_of(a, term).map(|v| (v, &a.channel)))
+                .max_by(|a, b| a.0 .0.total_cmp(&b.0 .0));
+            match worst {
+                Some(((v, upper, domain), channel)) => keys.push(format!(
+                    "{prefix}_{key}: {v:.6e}  # {} {channel}, {domain}{}",
+                    if upper { "upper limit," } else { "worst axis" },
+                    if upper { " (not significant)" } else { "" }
+                )),
+                None => keys.push(format!("# {prefix}_{key}: no fit succeeded")),
+            }
+        }
+    }
+    let _ = writeln!(out, "#\n# update_rate: the recording's sample rate, Hz ({}).", sig4(rate_hz));
+    for k in keys {
+        let _ = writeln!(out, "{k}");
+    }
+    let _ = writeln!(out, "rostopic: {topic}");
+    let _ = writeln!(out, "update_rate: {rate_hz:?}");
+    out
+}

@@ -1,0 +1,241 @@
+//! `summary.md`: what an engineer reads first. Per recording, the quality screen, then tables in
+//! the style of Paszek & Kaniewski (2014, Tables 3–5): each noise term per axis, estimated from the
+//! spectrum and from the Allan variance, in both unit systems (°/√h and (°/s)/√Hz, °/h and °/s, …),
+//! with intervals, the PSD/AV ratio and whether the intervals overlap; then the fit quality.
+
+use std::fmt::Write;
+
+use crate::analysis::ChannelAnalysis;
+use crate::model::{NoiseFit, Sensor, Term, TermEstimate};
+use crate::pipeline::FileResult;
+
+use super::model::units_of;
+
+/// Four significant digits, plain or scientific as fits the magnitude.
+pub fn sig4(v: f64) -> String {
+    if !v.is_finite() {
+        return "–".into();
+    }
+    if v == 0.0 {
+        return "0".into();
+    }
+    let e = v.abs().log10().floor();
+    if (-3.0..5.0).contains(&e) {
+        let decimals = (3.0 - e).max(0.0) as usize;
+        format!("{v:.decimals$}")
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+fn cell(e: Option<&TermEstimate>, unit: crate::model::CoefUnit) -> String {
+    match e {
+        Some(e) => format!(
+            "{} [{}, {}]",
+            sig4(unit.from_si(e.value)),
+            sig4(unit.from_si(e.lo)),
+            sig4(unit.from_si(e.hi))
+        ),
+        None => "not significant".into(),
+    }
+}
+
+fn sensor_title(sensor: Sensor) -> &'static str {
+    match sensor {
+        Sensor::Gyro => "Gyroscopes",
+        Sensor::Accel => "Accelerometers",
+    }
+}
+
+/// One table: `term` for every channel of `sensor`, PSD and AV, in both display units.
+fn term_table(out: &mut String, sensor: Sensor, term: Term, channels: &[&ChannelAnalysis]) {
+    let [_, u1, u2] = units_of(sensor, term);
+    let _ = writeln!(
+        out,
+        "\n**{} — {} ({})**\n",
+        sensor_title(sensor),
+        term.name(sensor == Sensor::Gyro),
+        term.symbol()
+    );
+    let _ = writeln!(
+        out,
+        "| axis | PSD [{p1}] | AV [{p1}] | PSD [{p2}] | AV [{p2}] | PSD/AV | intervals overlap |",
+        p1 = u1.pretty(),
+        p2 = u2.pretty()
+    );
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|");
+    for a in channels {
+        let (av, sp) = (
+            a.allan_fit().and_then(|f| f.get(term)),
+            a.spectrum_fit().and_then(|f| f.get(term)),
+        );
+        let row = a.comparison.iter().find(|r| r.term == term);
+        let ratio = row
+            .and_then(|r| r.ratio)
+            .map_or("–".into(), |r| format!("{r:.3}"));
+        let overlap = row
+            .and_then(|r| r.overlap)
+            .map_or("–", |o| if o { "yes" } else { "no" });
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} | {ratio} | {overlap} |",
+            a.channel,
+            cell(sp, u1),
+            cell(av, u1),
+            cell(sp, u2),
+            cell(av, u2),
+        );
+    }
+}
+
+fn kept(fit: Option<&NoiseFit>) -> String {
+    match fit {
+        Some(f) if f.estimates.is_empty() => "none".into(),
+        Some(f) => f
+            .estimates
+            .iter()
+            .map(|e| e.term.symbol())
+            .collect::<Vec<_>>()
+            .join(" "),
+        None => "fit failed".into(),
+    }
+}
+
+fn chi2(fit: Option<&NoiseFit>) -> String {
+    fit.map_or("–".into(), |f| format!("{:.2} ({} dof)", f.chi2_per_dof(), f.dof))
+}
+
+fn failure(r: &Result<NoiseFit, crate::model::FitError>) -> Option<String> {
+    r.as_ref().err().map(|e| e.to_string())
+}
+
+fn file_section(out: &mut String, r: &FileResult) {
+    let q = &r.quality;
+    let _ = writeln!(out, "\n## {}\n", r.recording.path.display());
+    let _ = writeln!(
+        out,
+        "{} samples per channel at {} Hz ({:.1} min), {} channels; backend: {}.",
+        q.samples_out,
+        r.recording.rate_hz,
+        q.duration_s / 60.0,
+        r.recording.channels.len(),
+        r.backend
+    );
+    let mut notes = Vec::new();
+    if q.gap_count > 0 {
+        notes.push(format!(
+            "{} gaps, {} samples missing (policy {})",
+            q.gap_count, q.missing_samples, q.gap_policy
+        ));
+    }
+    for c in &q.channels {
+        if c.nonfinite_samples > 0 {
+            notes.push(format!(
+                "{}: {} non-finite samples (policy {})",
+                c.name, c.nonfinite_samples, q.nonfinite_policy
+            ));
+        }
+        if c.summary.possibly_saturated {
+            notes.push(format!("{}: possibly saturated", c.name));
+        }
+    }
+    notes.extend(r.backend_notes.iter().cloned());
+    for n in notes {
+        let _ = writeln!(out, "- {n}");
+    }
+    let Some(analysis) = &r.analysis else { return };
+    if analysis.is_empty() {
+        let _ = writeln!(
+            out,
+            "\nNo gyro or accelerometer channel (set `kind` metadata or `--kind COLUMN=gyro`)."
+        );
+        return;
+    }
+    let _ = writeln!(
+        out,
+        "\nIntervals are {} two-sided; a term is listed as not significant when the information \
+         criterion did not admit it (its upper limit is in report.json).",
+        confidence_text(analysis)
+    );
+    for sensor in [Sensor::Gyro, Sensor::Accel] {
+        let channels: Vec<&ChannelAnalysis> =
+            analysis.iter().filter(|a| a.sensor == sensor).collect();
+        if channels.is_empty() {
+            continue;
+        }
+        let _ = writeln!(out, "\n### {}", sensor_title(sensor));
+        for term in Term::ALL {
+            let present = channels.iter().any(|a| {
+                a.allan_fit().and_then(|f| f.get(term)).is_some()
+                    || a.spectrum_fit().and_then(|f| f.get(term)).is_some()
+            });
+            // N and B are always tabled (the paper's Tables 4 and 5); other terms when found.
+            if present || matches!(term, Term::RandomWalk | Term::BiasInstability) {
+                term_table(out, sensor, term, &channels);
+            }
+        }
+    }
+    let _ = writeln!(out, "\n### Fit quality\n");
+    let _ = writeln!(
+        out,
+        "| channel | terms (AV) | χ²/dof (AV) | terms (PSD) | χ²/dof (PSD) |"
+    );
+    let _ = writeln!(out, "|---|---|---|---|---|");
+    for a in analysis {
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} |",
+            a.channel,
+            kept(a.allan_fit()),
+            chi2(a.allan_fit()),
+            kept(a.spectrum_fit()),
+            chi2(a.spectrum_fit())
+        );
+    }
+    for a in analysis {
+        for (what, r) in [("AV", &a.allan), ("PSD", &a.spectrum)] {
+            if let Some(reason) = failure(r) {
+                let _ = writeln!(out, "\n- {} {what} fit failed: {reason}", a.channel);
+            }
+        }
+    }
+}
+
+fn confidence_text(analysis: &[ChannelAnalysis]) -> String {
+    let p = analysis
+        .iter()
+        .find_map(|a| a.allan_fit().or(a.spectrum_fit()))
+        .map(|f| f.confidence);
+    match p {
+        Some(p) if (p - 0.682_689).abs() < 1e-4 => "1σ (68.3 %)".into(),
+        Some(p) => format!("{:.1} %", 100.0 * p),
+        None => "–".into(),
+    }
+}
+
+/// The whole summary.
+pub fn summary_markdown(ok: &[&FileResult], failed: &[(String, String)], elapsed_s: f64) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "# imunoise noise analysis\n");
+    let _ = writeln!(
+        out,
+        "imunoise {}; {} file(s) analysed, {} failed, in {:.2} s. Coefficients are fitted by \
+         weighted non-negative least squares to the overlapping Allan variance (AV) and, \
+         separately, to the log-binned Welch spectrum (PSD); values in SI are in report.json and \
+         coefficients.csv.",
+        env!("CARGO_PKG_VERSION"),
+        ok.len(),
+        failed.len(),
+        elapsed_s
+    );
+    for r in ok {
+        file_section(&mut out, r);
+    }
+    if !failed.is_empty() {
+        let _ = writeln!(out, "\n## Files that failed\n");
+        for (path, message) in failed {
+            let _ = writeln!(out, "- {path}: {message}");
+        }
+    }
+    out
+}
