@@ -64,6 +64,7 @@ fn ingest(c: &mut Criterion) {
         }),
         avar: None,
         fit: None,
+        residual_loop: false,
     };
     group.bench_function("read_screen_welch_4096", |b| {
         b.iter(|| pipeline::run(&path, &inputs, &welch, &CpuBackend, &Silent).unwrap())

@@ -12,7 +12,10 @@
 use serde::Serialize;
 
 use crate::avar::{Deviations, Statistic};
-use crate::model::{compare, fit_avar, fit_psd, FitError, FitOptions, NoiseFit, Sensor, TermComparison};
+use crate::effects::{close_loop, AuxSeries, LoopConfig, LoopReport};
+use crate::model::{
+    compare, fit_avar, fit_psd, FitError, FitOptions, NoiseFit, Sensor, TermComparison,
+};
 use crate::pipeline::{ChannelDeviations, ChannelPsd};
 
 /// One channel's fits.
@@ -28,6 +31,9 @@ pub struct ChannelAnalysis {
     pub spectrum: Result<NoiseFit, FitError>,
     /// Spectrum- against Allan-derived value per term, when both fits succeeded.
     pub comparison: Vec<TermComparison>,
+    /// The residual loop: effects added to the base model, step by step. The fits above are the
+    /// final ones (base terms fitted together with the effects, on the corrected series).
+    pub residual_loop: Option<LoopReport>,
 }
 
 fn outcome<S: serde::Serializer>(r: &Result<NoiseFit, FitError>, s: S) -> Result<S::Ok, S::Error> {
@@ -63,8 +69,52 @@ impl ChannelAnalysis {
     }
 }
 
-/// Fits one channel from its estimates: the OADEV of `deviations` and the binned spectrum of `psd`.
+/// One channel's inputs to the model stage.
+#[derive(Debug, Clone, Copy)]
+pub struct ChannelInput<'a> {
+    pub sensor: Sensor,
+    pub psd: &'a ChannelPsd,
+    pub deviations: &'a ChannelDeviations,
+    /// The clean samples (SI), for the residual loop.
+    pub samples: &'a [f64],
+    pub rate_hz: f64,
+}
+
+/// Fits one channel and, with `loop_cfg`, closes the loop on it (`aux`: channels that may
+/// explain part of it, such as temperature).
 pub fn analyze_channel(
+    input: ChannelInput<'_>,
+    aux: &[AuxSeries<'_>],
+    opts: &FitOptions,
+    loop_cfg: Option<&LoopConfig>,
+) -> ChannelAnalysis {
+    let mut a = fit_channel(input.sensor, input.psd, input.deviations, opts);
+    let (Some(cfg), Some(binned), Some(dev)) =
+        (loop_cfg, &input.psd.binned, oadev(input.deviations))
+    else {
+        return a;
+    };
+    let initial = (dev.clone(), input.psd.psd.clone(), binned.clone());
+    if let Some(outcome) = close_loop(input.samples, input.rate_hz, aux, cfg, Some(initial)) {
+        if !outcome.report.steps.is_empty() {
+            if let Some(f) = outcome.allan {
+                a.allan = Ok(f);
+            }
+            if let Some(f) = outcome.spectrum {
+                a.spectrum = Ok(f);
+            }
+            a.comparison = match (&a.allan, &a.spectrum) {
+                (Ok(x), Ok(y)) => compare(x, y),
+                _ => Vec::new(),
+            };
+        }
+        a.residual_loop = Some(outcome.report);
+    }
+    a
+}
+
+/// Fits one channel from its estimates: the OADEV of `deviations` and the binned spectrum of `psd`.
+pub fn fit_channel(
     sensor: Sensor,
     psd: &ChannelPsd,
     deviations: &ChannelDeviations,
@@ -91,6 +141,7 @@ pub fn analyze_channel(
         allan,
         spectrum,
         comparison,
+        residual_loop: None,
     }
 }
 

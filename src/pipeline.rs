@@ -15,7 +15,9 @@ use crate::estimate::Backend;
 use crate::io::{self, InputError, OpenOptions, Recording};
 use crate::psd::{log_bin, BinnedPsd, Psd, PsdError, WelchPlan};
 use crate::quality::{Cleaner, QualityOptions, QualityReport};
-use crate::analysis::{self, ChannelAnalysis};
+use crate::analysis::{self, ChannelAnalysis, ChannelInput};
+use crate::effects::{AuxSeries, LoopConfig};
+use crate::units::Kind;
 use crate::model::{FitOptions, Sensor};
 use crate::Error;
 
@@ -35,6 +37,8 @@ pub struct Work {
     /// Fit the noise model to every inertial channel (needs both estimates, the OADEV among the
     /// statistics and a binned spectrum; see [`crate::analysis`]).
     pub fit: Option<FitOptions>,
+    /// With [`Work::fit`]: close the loop on every fitted channel ([`crate::effects`]).
+    pub residual_loop: bool,
 }
 
 /// Welch PSD settings.
@@ -211,7 +215,23 @@ pub fn run(
     let analysis = match (&work.fit, &psd, &avar) {
         (Some(opts), Some(psd), Some(avar)) => {
             let t = Instant::now();
-            let out = fit_channels(&recording, psd, avar, opts);
+            let loop_cfg = match (work.residual_loop, &work.welch, &work.avar) {
+                (true, Some(w), Some(a)) => Some(LoopConfig {
+                    welch: w.plan.config().clone(),
+                    bins_per_decade: w.bins_per_decade.unwrap_or(20),
+                    taus: match &a.taus {
+                        TauSpec::Grid(g) => g.clone(),
+                        TauSpec::Seconds(t) => {
+                            TauGrid::Explicit(factors_for_seconds(t, recording.rate_hz))
+                        }
+                    },
+                    confidence: a.confidence,
+                    fit: opts.clone(),
+                }),
+                _ => None,
+            };
+            let samples = series.as_deref().unwrap_or(&[]);
+            let out = fit_channels(&recording, psd, avar, samples, opts, loop_cfg.as_ref());
             timings.fit_s = t.elapsed().as_secs_f64();
             Some(out)
         }
@@ -232,21 +252,44 @@ pub fn run(
     })
 }
 
-/// The model stage over the inertial channels (gyro and accel kinds), in channel order.
+/// The model stage over the inertial channels (gyro and accel kinds), in channel order, in
+/// parallel; temperature and aux channels are the loop's regressors.
 fn fit_channels(
     recording: &Recording,
     psd: &[ChannelPsd],
     avar: &[ChannelDeviations],
+    samples: &[Vec<f64>],
     opts: &FitOptions,
+    loop_cfg: Option<&LoopConfig>,
 ) -> Vec<ChannelAnalysis> {
-    recording
+    use rayon::prelude::*;
+    let aux: Vec<AuxSeries<'_>> = recording
         .channels
         .iter()
-        .zip(psd.iter().zip(avar))
-        .filter_map(|(c, (p, d))| {
-            let sensor = Sensor::of_kind(c.kind)?;
-            Some(analysis::analyze_channel(sensor, p, d, opts))
+        .zip(samples)
+        .filter(|(c, _)| matches!(c.kind, Kind::Temperature | Kind::Aux))
+        .map(|(c, s)| AuxSeries {
+            name: &c.name,
+            samples: s,
         })
+        .collect();
+    let inputs: Vec<ChannelInput<'_>> = recording
+        .channels
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| {
+            Some(ChannelInput {
+                sensor: Sensor::of_kind(c.kind)?,
+                psd: psd.get(i)?,
+                deviations: avar.get(i)?,
+                samples: samples.get(i).map_or(&[], Vec::as_slice),
+                rate_hz: recording.rate_hz,
+            })
+        })
+        .collect();
+    inputs
+        .into_par_iter()
+        .map(|input| analysis::analyze_channel(input, &aux, opts, loop_cfg))
         .collect()
 }
 

@@ -108,6 +108,11 @@ pub struct FitFlags {
     #[arg(long, value_name = "HZ")]
     pub fit_max_freq: Option<f64>,
 
+    /// Fit the IEEE model only: do not look for effects it lacks (lines, resonances, Gauss–Markov
+    /// processes, temperature coupling, spikes, bias steps) in what it leaves unexplained.
+    #[arg(long)]
+    pub no_loop: bool,
+
     /// Kalibr topic written into imu.yaml.
     #[arg(long, default_value = "/imu0", value_name = "TOPIC")]
     pub rostopic: String,

@@ -84,6 +84,7 @@ pub fn job(cli: Cli) -> Result<Job, UsageError> {
     let welch = welch.map(|w| welch_work(&w, &mut options)).transpose()?;
     let mut avar = avar.map(|a| avar_work(&a, &mut options)).transpose()?;
     let kalibr_topic = fit.as_ref().map(|f| f.rostopic.clone());
+    let residual_loop = fit.as_ref().is_some_and(|f| !f.no_loop);
     let fit = match fit {
         Some(f) => Some(fit_options(&f, welch.as_ref(), avar.as_mut(), &mut options)?),
         None => None,
@@ -94,7 +95,12 @@ pub fn job(cli: Cli) -> Result<Job, UsageError> {
         command,
         files: input.files,
         inputs,
-        work: Work { welch, avar, fit },
+        work: Work {
+            welch,
+            avar,
+            fit,
+            residual_loop,
+        },
         output,
         backend: backend_choice(&backend)?,
         options: Value::Object(options),

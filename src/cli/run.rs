@@ -262,6 +262,9 @@ fn write_outputs(
                 analysis,
             );
             report::write_atomically(&folder.join("imu.yaml"), |w| w.write_all(yaml.as_bytes()))?;
+            let plots = folder.join("plots");
+            std::fs::create_dir_all(&plots).map_err(|e| OutputError::new(&plots, e))?;
+            report::write_plots(&plots, r)?;
         }
     }
     if job.work.welch.is_some() {

@@ -1,5 +1,18 @@
-//! Effects the IEEE noise model lacks, found in what the base fit leaves unexplained.
+//! Effects the IEEE noise model lacks, found in what the base fit leaves unexplained, and the loop
+//! that adds them ([`closing::close_loop`]).
 //!
+//! - [`residuals`]: structure tests on a fit's normalised residuals.
+//! - [`lines`]: narrow excesses of the raw spectrum over the model (lines, resonances).
+//! - [`shapes`]: stochastic effects fitted as one more model column (Gauss–Markov, resonance).
 //! - [`time`]: effects that live in the time series (coupling to an aux channel, spikes, bias
 //!   steps, sinusoid regression, split-record stationarity).
+pub mod closing;
+pub mod lines;
+pub mod residuals;
+pub mod shapes;
 pub mod time;
+
+pub use closing::{
+    close_loop, AuxSeries, Effect, ErrorFigures, LoopConfig, LoopOutcome, LoopReport, LoopStep,
+    Rejected,
+};

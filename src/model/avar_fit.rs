@@ -29,10 +29,10 @@
 use crate::avar::{edf::edf, Deviations, Statistic};
 
 use super::correlation::Correlation;
-use super::fit::{Problem, TERMS};
+use super::fit::{Problem, EFFECT, TERMS};
 use super::result::Domain;
 use super::select::select_and_fit;
-use super::{FitError, FitOptions, NoiseFit, Term};
+use super::{EffectShape, FitError, FitOptions, NoiseFit, Term};
 
 /// Floor a, correlation length ℓ (octaves) and exponent κ of the error correlation of
 /// overlapping Allan variances per term, in [`Term::ALL`] order (table in the module docs).
@@ -42,6 +42,9 @@ const CORRELATION: [(f64, f64, f64); TERMS] = [
     (0.0, 1.87, 1.52),
     (0.0, 3.89, 1.55),
     (0.0, 3.89, 1.55),
+    // An effect: correlated as white noise (a Gauss–Markov process is white beyond Tc, where its
+    // points carry weight).
+    (0.0, 1.46, 1.25),
 ];
 
 /// Fits the IEEE terms to an Allan-variance curve (OADEV or ADEV).
@@ -63,6 +66,17 @@ const CORRELATION: [(f64, f64, f64); TERMS] = [
 /// [`FitError::TooFewPoints`] with fewer than two positive variances, [`FitError::NoSignal`] if
 /// every candidate is zero.
 pub fn fit_avar(d: &Deviations, opts: &FitOptions) -> Result<NoiseFit, FitError> {
+    fit_avar_with(d, opts, None)
+}
+
+/// [`fit_avar`] with an effect's column fitted together with the base terms (in every candidate
+/// model; the base terms are chosen around it). The result's [`NoiseFit::effect`] is its
+/// amplitude.
+pub fn fit_avar_with(
+    d: &Deviations,
+    opts: &FitOptions,
+    effect: Option<&dyn EffectShape>,
+) -> Result<NoiseFit, FitError> {
     if !matches!(d.statistic, Statistic::Oadev | Statistic::Adev) {
         return Err(FitError::UnsupportedStatistic(d.statistic));
     }
@@ -75,18 +89,28 @@ pub fn fit_avar(d: &Deviations, opts: &FitOptions) -> Result<NoiseFit, FitError>
         value: keep.iter().map(|&i| d.variance[i]).collect(),
         basis: tau
             .iter()
-            .map(|&t| std::array::from_fn(|j| Term::ALL[j].avar_unit(t)))
+            .map(|&t| {
+                std::array::from_fn(|j| match (j, effect) {
+                    (EFFECT, Some(e)) => e.avar_unit(t, d.rate_hz),
+                    (EFFECT, None) => 0.0,
+                    _ => Term::ALL[j].avar_unit(t),
+                })
+            })
             .collect(),
         edf: keep
             .iter()
             .map(|&i| {
                 std::array::from_fn(|j| {
-                    let term = Term::ALL[j];
-                    if term == Term::RateRamp {
-                        // Deterministic: adds to σ²(τ) but no scatter of its own.
-                        return f64::INFINITY;
-                    }
-                    let e = edf(d.statistic, term.alpha(), d.m[i], n_samples);
+                    let alpha = match (j, effect) {
+                        (EFFECT, Some(e)) => e.alpha_at(d.tau_s[i]),
+                        (EFFECT, None) => Term::RandomWalk.alpha(),
+                        _ if Term::ALL[j] == Term::RateRamp => {
+                            // Deterministic: adds to σ²(τ) but no scatter of its own.
+                            return f64::INFINITY;
+                        }
+                        _ => Term::ALL[j].alpha(),
+                    };
+                    let e = edf(d.statistic, alpha, d.m[i], n_samples);
                     if e.is_finite() && e > 0.0 {
                         e
                     } else {
@@ -108,7 +132,8 @@ pub fn fit_avar(d: &Deviations, opts: &FitOptions) -> Result<NoiseFit, FitError>
         e[ramp] = e[walk];
     }
     screen.cross.clear();
-    select_and_fit(&problem, &screen, &tau, opts.mask(), opts, Domain::Allan)
+    let forced = if effect.is_some() { 1 << EFFECT } else { 0 };
+    select_and_fit(&problem, &screen, &tau, opts.mask(), forced, opts, Domain::Allan)
 }
 
 /// Variance of the ramp × noise cross term of point i per unit μ_R·μ_noise.

@@ -66,6 +66,7 @@ mod avar_fit;
 mod band_correlation;
 mod compare;
 mod correlation;
+mod effect;
 mod error;
 mod fit;
 mod interval;
@@ -78,11 +79,14 @@ mod select;
 mod terms;
 mod units;
 
-pub use avar_fit::fit_avar;
+pub use avar_fit::{fit_avar, fit_avar_with};
 pub use compare::{compare, TermComparison};
 pub use error::FitError;
 pub use options::FitOptions;
-pub use psd_fit::fit_psd;
-pub use result::{Candidate, Criterion, Domain, FitPoint, NoiseFit, TermEstimate, UpperLimit};
+pub use psd_fit::{fit_psd, fit_psd_with};
+pub use effect::EffectShape;
+pub use result::{
+    Candidate, Criterion, Domain, EffectEstimate, FitPoint, NoiseFit, TermEstimate, UpperLimit,
+};
 pub use terms::{Coefficients, GaussMarkov, Sinusoid, Term, FLICKER_PLATEAU};
 pub use units::{CoefUnit, Sensor, UnitError};

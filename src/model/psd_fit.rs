@@ -27,10 +27,10 @@ use crate::psd::{BinnedPsd, Psd, Scaling};
 
 use super::band_correlation::band_correlation;
 use super::correlation::Correlation;
-use super::fit::{Problem, TERMS};
+use super::fit::{Problem, EFFECT, TERMS};
 use super::result::Domain;
 use super::select::select_and_fit;
-use super::{FitError, FitOptions, NoiseFit, Term};
+use super::{EffectShape, FitError, FitOptions, NoiseFit, Term};
 
 /// Second moment (Hz²) of the window's spectral window |W(ν)|²/Σw²: a Welch bin averages the
 /// spectrum over ±σ around its frequency, so a curved spectrum reads high by ½S″σ² (Hann: σ² =
@@ -69,6 +69,17 @@ fn leakage_spread2(psd: &Psd) -> f64 {
 /// that is not a positive number, [`FitError::TooFewPoints`] when fewer than two bands remain,
 /// [`FitError::NoSignal`] if every candidate is zero.
 pub fn fit_psd(psd: &Psd, binned: &BinnedPsd, opts: &FitOptions) -> Result<NoiseFit, FitError> {
+    fit_psd_with(psd, binned, opts, None)
+}
+
+/// [`fit_psd`] with an effect's column fitted together with the base terms (see
+/// [`fit_avar_with`](super::fit_avar_with)).
+pub fn fit_psd_with(
+    psd: &Psd,
+    binned: &BinnedPsd,
+    opts: &FitOptions,
+    effect: Option<&dyn EffectShape>,
+) -> Result<NoiseFit, FitError> {
     if psd.scaling != Scaling::Density {
         return Err(FitError::NotDensity);
     }
@@ -114,6 +125,12 @@ pub fn fit_psd(psd: &Psd, binned: &BinnedPsd, opts: &FitOptions) -> Result<Noise
                 })
                 .collect();
             std::array::from_fn(|j| {
+                if j == EFFECT {
+                    return effect.map_or(0.0, |e| {
+                        at.iter().map(|&f| e.psd_unit(f, psd.rate_hz)).sum::<f64>()
+                            / at.len() as f64
+                    });
+                }
                 let term = Term::ALL[j];
                 // Second-order leakage of S ∝ f^−p: ½S″·σ² = S·p(p+1)σ²/(2f²).
                 let p = -f64::from(term.alpha());
@@ -135,5 +152,6 @@ pub fn fit_psd(psd: &Psd, binned: &BinnedPsd, opts: &FitOptions) -> Result<Noise
         cross: Vec::new(),
     };
     let x: Vec<f64> = keep.iter().map(|&b| binned.freq_hz[b]).collect();
-    select_and_fit(&problem, &problem, &x, opts.mask(), opts, Domain::Spectrum)
+    let forced = if effect.is_some() { 1 << EFFECT } else { 0 };
+    select_and_fit(&problem, &problem, &x, opts.mask(), forced, opts, Domain::Spectrum)
 }

@@ -65,6 +65,15 @@ impl TermEstimate {
     }
 }
 
+/// The fitted amplitude (√ of the power per unit shape) of an added effect.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct EffectEstimate {
+    pub value: f64,
+    pub lo: f64,
+    pub hi: f64,
+    pub edf: f64,
+}
+
 /// An absent term and the largest coefficient compatible with the data: the upper end of the
 /// interval the term would have had if forced in (0 if even that fit gives it nothing).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -114,8 +123,11 @@ pub struct NoiseFit {
     /// χ² of the normalised residuals of the final fit, zᵀR⁻¹z with R the working correlation
     /// between points (identity for spectra).
     pub chi2: f64,
-    /// Points − kept terms.
+    /// Points − fitted columns (kept terms and the effect).
     pub dof: usize,
+    /// The power of the effect the fit was asked to include ([`crate::model::EffectShape`]), as
+    /// an amplitude (√power) with its interval; `None` for the base model.
+    pub effect: Option<EffectEstimate>,
     pub criterion: Criterion,
     pub confidence: f64,
     /// Every subset weighed, best score first.

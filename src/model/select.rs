@@ -14,18 +14,23 @@
 //! its place like any other term; once in, it is fitted and given its interval with its own
 //! scatter.
 
-use super::fit::{members, Mask, Problem, TERMS};
+use super::fit::{members, Mask, Problem, BASE, EFFECT, TERMS};
 use super::interval::{coefficient_interval, normal_quantile};
 use super::result::Domain;
-use super::{Candidate, FitError, FitOptions, FitPoint, NoiseFit, Term, TermEstimate, UpperLimit};
+use super::{
+    Candidate, EffectEstimate, FitError, FitOptions, FitPoint, NoiseFit, Term, TermEstimate,
+    UpperLimit,
+};
 
 /// Fits `problem` (points at `x`), choosing among the subsets of `allowed` by their scores on
-/// `screen` (the same points, possibly other variances).
+/// `screen` (the same points, possibly other variances). Columns in `forced` (an effect) are in
+/// every candidate; the base terms are chosen around them.
 pub(crate) fn select_and_fit(
     problem: &Problem,
     screen: &Problem,
     x: &[f64],
     allowed: Mask,
+    forced: Mask,
     opts: &FitOptions,
     domain: Domain,
 ) -> Result<NoiseFit, FitError> {
@@ -40,15 +45,21 @@ pub(crate) fn select_and_fit(
         .confidence
         .probability()
         .map_err(|e| FitError::InvalidOptions(e.to_string()))?;
-    let mut fits: Vec<(Candidate, Mask)> = (1..=allowed)
+    let first = if forced == 0 { 1 } else { 0 };
+    let mut fits: Vec<(Candidate, Mask)> = (first..=allowed)
         .filter(|&m| m & allowed == m)
+        .map(|m| m | forced)
         .map(|mask| {
             let fit = screen.irls(mask);
             let idx = members(mask);
             let proper = idx.iter().all(|&j| fit.c[j] > 0.0);
             let (_, chi2, neg2ll) = screen.likelihood(&fit);
             let candidate = Candidate {
-                terms: idx.iter().map(|&j| Term::ALL[j]).collect(),
+                terms: idx
+                    .iter()
+                    .filter(|&&j| j < BASE)
+                    .map(|&j| Term::ALL[j])
+                    .collect(),
                 chi2,
                 score: opts.criterion.score(neg2ll, idx.len(), n),
                 proper,
@@ -73,6 +84,10 @@ pub(crate) fn select_and_fit(
         if zeroed == 0 || zeroed == mask {
             break;
         }
+        if zeroed & forced != 0 {
+            // The effect itself came out zero: the caller's criterion will reject it.
+            break;
+        }
         mask &= !zeroed;
         fit = problem.irls(mask);
     }
@@ -83,9 +98,20 @@ pub(crate) fn select_and_fit(
     let (z, chi2, _) = problem.likelihood(&fit);
 
     let cov = problem.covariance(&fit.weights, &idx);
+    let effect = idx.iter().position(|&j| j == EFFECT).map(|a| {
+        let var = cov.as_ref().map_or(f64::INFINITY, |cov| cov[a][a]);
+        let (lo, hi, edf) = coefficient_interval(fit.c[EFFECT], var, p);
+        EffectEstimate {
+            value: fit.c[EFFECT].max(0.0).sqrt(),
+            lo,
+            hi,
+            edf,
+        }
+    });
     let estimates = idx
         .iter()
         .enumerate()
+        .filter(|(_, &j)| j < BASE)
         .map(|(a, &j)| {
             let var = cov.as_ref().map_or(f64::INFINITY, |cov| cov[a][a]);
             let (lo, hi, edf) = coefficient_interval(fit.c[j], var, p);
@@ -134,6 +160,7 @@ pub(crate) fn select_and_fit(
         upper_limits,
         chi2,
         dof: n.saturating_sub(idx.len()),
+        effect,
         criterion: opts.criterion,
         confidence: p,
         candidates: fits.into_iter().map(|(c, _)| c).collect(),

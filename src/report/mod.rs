@@ -7,8 +7,10 @@
 //! `schema/imunoise-output.schema.json`; the README describes it.
 
 mod atomic;
+mod figures;
 mod kalibr;
 mod model;
+pub mod plot;
 mod summary;
 mod table;
 
@@ -17,6 +19,7 @@ use std::path::Path;
 use serde_json::{json, Value};
 
 pub use atomic::{write_atomically, OutputError};
+pub use figures::{avar_figure, psd_figure};
 pub use kalibr::imu_yaml;
 pub use model::{analysis_json, coefficients_table, units_of};
 pub use summary::{sig4, summary_markdown};
@@ -327,4 +330,39 @@ pub fn write_table(
 /// Writes the document as pretty JSON, atomically.
 pub fn write_json(path: &Path, doc: &Value) -> Result<(), OutputError> {
     write_atomically(path, |out| serde_json::to_writer_pretty(out, doc))
+}
+
+/// Writes the plots of every analysed channel of `r` into `folder` as SVG and PNG:
+/// `<channel>_avar.svg|png` and `<channel>_psd.svg|png`.
+pub fn write_plots(folder: &Path, r: &FileResult) -> Result<(), OutputError> {
+    use std::io::Write;
+    let Some(analysis) = &r.analysis else {
+        return Ok(());
+    };
+    for a in analysis {
+        let unit = channel_unit(&r.recording, &a.channel).map_or("raw".to_string(), |u| u.to_string());
+        let mut figures = Vec::new();
+        if let Some(d) = r
+            .avar
+            .iter()
+            .flatten()
+            .find(|c| c.channel == a.channel)
+            .and_then(crate::analysis::oadev)
+        {
+            figures.push(("avar", avar_figure(a, d, &unit)));
+        }
+        if let Some(p) = r.psd.iter().flatten().find(|c| c.channel == a.channel) {
+            figures.push(("psd", psd_figure(a, p, &unit)));
+        }
+        for (what, fig) in figures {
+            let stem = folder.join(format!("{}_{what}", a.channel));
+            let svg = fig.to_svg();
+            write_atomically(&stem.with_extension("svg"), |w| w.write_all(svg.as_bytes()))?;
+            let png = fig
+                .to_png()
+                .map_err(|e| OutputError::new(&stem.with_extension("png"), e))?;
+            write_atomically(&stem.with_extension("png"), |w| w.write_all(&png))?;
+        }
+    }
+    Ok(())
 }

@@ -16,7 +16,13 @@ pub fn units_of(sensor: Sensor, term: Term) -> [CoefUnit; 3] {
 }
 
 fn in_units(sensor: Sensor, term: Term, values: &[(&str, f64)]) -> Value {
-    units_of(sensor, term)
+    let mut units: Vec<CoefUnit> = Vec::new();
+    for u in units_of(sensor, term) {
+        if !units.contains(&u) {
+            units.push(u);
+        }
+    }
+    units
         .iter()
         .map(|u| {
             let mut o = serde_json::Map::new();

@@ -91,11 +91,15 @@ fn analyze_writes_every_table_and_the_document_atomically() {
         [
             "avar.arrow",
             "avar.csv",
+            "coefficients.arrow",
+            "coefficients.csv",
             "psd.arrow",
             "psd.csv",
             "psd_binned.arrow",
             "psd_binned.csv",
-            "report.json"
+            "report.json",
+            "sample_imu",
+            "summary.md",
         ]
     );
     let doc: Value =

@@ -443,6 +443,7 @@ fn too_short_recordings_say_what_was_needed() {
         }),
         avar: None,
         fit: None,
+        residual_loop: false,
     };
     let e = run_err(&path, &work);
     assert!(
@@ -466,6 +467,7 @@ fn too_short_recordings_say_what_was_needed() {
             confidence: imunoise::avar::Confidence::OneSigma,
         }),
         fit: None,
+        residual_loop: false,
     };
     let e = run_err(&path, &work);
     assert!(

@@ -1,6 +1,7 @@
 //! One integration-test binary; each area of the library has its own module.
 mod support;
 
+mod analyze;
 mod avar;
 mod cli;
 mod gpu;

@@ -28,6 +28,7 @@ fn welch_memory_is_bounded_by_segment_and_block_not_by_file_length() {
             }),
             avar: None,
             fit: None,
+            residual_loop: false,
         };
         let r = pipeline::run(&path, &Inputs::default(), &work, &CpuBackend, &Silent).unwrap();
         let peak = r.footprint.welch_peak_buffered_samples;

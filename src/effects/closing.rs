@@ -1,0 +1,568 @@
+//! The loop that closes the model: fit, look at what is left, trace it to an effect, add the
+//! effect, refit everything, keep it only if the information criterion improves, repeat.
+//!
+//! Each round every candidate of the catalogue is tried on the current state and the one with the
+//! lowest ΔBIC below zero is taken:
+//! - time-domain effects ([`super::time`]): spikes, a bias step, coupling to each aux channel
+//!   (temperature), and a sinusoid at each line the raw spectrum shows over the model
+//!   ([`super::lines`]); they are removed from the series, and the spectrum and the Allan variance
+//!   are recomputed (on the CPU) and refitted. Their ΔBIC is the time-domain one the detectors
+//!   report (an honest effective sample count, search-corrected);
+//! - stochastic effects ([`super::shapes`]): a first-order Gauss–Markov process (profiled over its
+//!   correlation time) and a resonance (at an excess too wide to be a line); they enter both fits
+//!   as one more column fitted with the base terms. Their ΔBIC is the sum over the two domains of
+//!   the change of the best candidate's score, with one more parameter per shape parameter, and
+//!   the spectrum's share must itself be negative (the spectrum is where such an effect shows
+//!   first, and its bands are close to independent). One stochastic effect at most: the fitting
+//!   engine has one effect column.
+//!
+//! The loop stops when no candidate improves the criterion, or after [`MAX_STEPS`] additions.
+//! Every step records the error before and after (χ²/dof and RMS log residual in both domains).
+
+use serde::Serialize;
+
+use crate::avar::{compute, Confidence, Deviations, Statistic, TauGrid};
+use crate::model::{
+    fit_avar_with, fit_psd_with, EffectEstimate, EffectShape, FitOptions, NoiseFit,
+};
+use crate::psd::{log_bin, welch, BinnedPsd, Psd, WelchConfig};
+
+use super::lines::{find_excess, Excess};
+use super::residuals::{diagnose, Diagnostics};
+use super::shapes::{GaussMarkov1, Resonance};
+use super::time::{
+    find_spikes, find_step, fit_coupling, fit_sinusoid, remove_coupling, remove_sinusoid,
+    remove_spikes, remove_step, split_record, Coupling, SineFit, Spikes, SplitRecord, Step,
+};
+
+/// Most effects added to one channel.
+pub const MAX_STEPS: usize = 6;
+/// Family-wise false-alarm probability of the raw-spectrum line search.
+const LINE_P: f64 = 1e-3;
+
+/// How the estimates are recomputed after a time-domain correction.
+#[derive(Debug, Clone)]
+pub struct LoopConfig {
+    pub welch: WelchConfig,
+    pub bins_per_decade: u32,
+    pub taus: TauGrid,
+    pub confidence: Confidence,
+    pub fit: FitOptions,
+}
+
+/// A channel that may explain part of the signal (temperature, any aux channel).
+#[derive(Debug, Clone, Copy)]
+pub struct AuxSeries<'a> {
+    pub name: &'a str,
+    pub samples: &'a [f64],
+}
+
+/// An effect the loop added, with its parameters and intervals (SI).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Effect {
+    /// A line: a sinusoid fitted in the time domain and removed.
+    Sinusoid(SineFit),
+    /// A narrowband resonance (second-order Gauss–Markov) of centre `f0_hz`, quality factor `q`
+    /// and standard deviation `sigma` (interval from the spectrum fit).
+    Resonance {
+        f0_hz: f64,
+        q: f64,
+        sigma: EffectEstimate,
+    },
+    /// A first-order Gauss–Markov process: correlation time and standard deviation (interval
+    /// from the spectrum fit).
+    GaussMarkov { tc_s: f64, sigma: EffectEstimate },
+    /// Linear coupling to an aux channel, regressed out.
+    Coupling { aux: String, fit: Coupling },
+    /// Spikes, replaced by the local level.
+    Spikes(Spikes),
+    /// A bias step, removed.
+    Step(Step),
+}
+
+impl Effect {
+    /// A short name: `sinusoid`, `resonance`, …
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Effect::Sinusoid(_) => "sinusoid",
+            Effect::Resonance { .. } => "resonance",
+            Effect::GaussMarkov { .. } => "gauss_markov",
+            Effect::Coupling { .. } => "coupling",
+            Effect::Spikes(_) => "spikes",
+            Effect::Step(_) => "step",
+        }
+    }
+}
+
+/// The error of the model in both domains.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ErrorFigures {
+    pub allan: Option<Diagnostics>,
+    pub spectrum: Option<Diagnostics>,
+}
+
+/// One addition.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LoopStep {
+    pub effect: Effect,
+    /// Which residual pointed at it, and where.
+    pub evidence: String,
+    pub delta_bic: f64,
+    pub before: ErrorFigures,
+    pub after: ErrorFigures,
+}
+
+/// A candidate weighed in the last round and not kept.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Rejected {
+    pub kind: &'static str,
+    pub delta_bic: f64,
+    pub note: String,
+}
+
+/// The loop's account of one channel.
+#[derive(Debug, Clone, Serialize)]
+pub struct LoopReport {
+    pub initial: ErrorFigures,
+    pub steps: Vec<LoopStep>,
+    #[serde(rename = "final")]
+    pub final_figures: ErrorFigures,
+    /// Candidates of the last round (none of which improved the criterion).
+    pub rejected: Vec<Rejected>,
+    /// Split-record (four quarters) comparison of the Allan deviations of the final series.
+    pub stationarity: Option<SplitRecord>,
+    /// The fits of the base model before any effect (those after are the channel's fits).
+    #[serde(skip)]
+    pub base_allan: Option<NoiseFit>,
+    #[serde(skip)]
+    pub base_spectrum: Option<NoiseFit>,
+    /// Estimates of the corrected series, when a time-domain effect changed it.
+    #[serde(skip)]
+    pub corrected: Option<(Deviations, Psd)>,
+}
+
+/// The stochastic effect in the model.
+#[derive(Debug, Clone)]
+enum Stochastic {
+    GaussMarkov(GaussMarkov1),
+    Resonance(Resonance),
+}
+
+impl Stochastic {
+    fn shape(&self) -> &dyn EffectShape {
+        match self {
+            Stochastic::GaussMarkov(g) => g,
+            Stochastic::Resonance(r) => r,
+        }
+    }
+}
+
+/// Estimates and fits of the current state.
+struct State {
+    y: Vec<f64>,
+    dev: Deviations,
+    psd: Psd,
+    binned: BinnedPsd,
+    allan: Option<NoiseFit>,
+    spectrum: Option<NoiseFit>,
+    stochastic: Option<Stochastic>,
+    changed: bool,
+}
+
+fn estimates(y: &[f64], fs: f64, cfg: &LoopConfig) -> Option<(Deviations, Psd, BinnedPsd)> {
+    let dev = compute(y, fs, &cfg.taus, Statistic::Oadev, cfg.confidence).ok()?;
+    let psd = welch(y, fs, &cfg.welch).ok()?;
+    let binned = log_bin(&psd, cfg.bins_per_decade.max(1));
+    Some((dev, psd, binned))
+}
+
+fn fits(
+    dev: &Deviations,
+    psd: &Psd,
+    binned: &BinnedPsd,
+    cfg: &LoopConfig,
+    effect: Option<&dyn EffectShape>,
+) -> (Option<NoiseFit>, Option<NoiseFit>) {
+    (
+        fit_avar_with(dev, &cfg.fit, effect).ok(),
+        fit_psd_with(psd, binned, &cfg.fit, effect).ok(),
+    )
+}
+
+fn figures(allan: Option<&NoiseFit>, spectrum: Option<&NoiseFit>) -> ErrorFigures {
+    ErrorFigures {
+        allan: allan.map(diagnose),
+        spectrum: spectrum.map(diagnose),
+    }
+}
+
+/// The best eligible score of a fit's candidates.
+fn score(fit: &NoiseFit) -> f64 {
+    fit.candidates
+        .iter()
+        .filter(|c| c.proper)
+        .map(|c| c.score)
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The spectrum fit's model as a one-sided density at f.
+fn model_one_sided(fit: &NoiseFit, stochastic: Option<&Stochastic>, f: f64, fs: f64) -> f64 {
+    let base: f64 = fit
+        .estimates
+        .iter()
+        .map(|e| e.value * e.value * e.term.psd_sampled_unit(f, fs))
+        .sum();
+    let effect = match (stochastic, fit.effect) {
+        (Some(s), Some(e)) => e.value * e.value * s.shape().psd_unit(f, fs),
+        _ => 0.0,
+    };
+    2.0 * (base + effect)
+}
+
+/// A candidate for this round: its ΔBIC, what it would add, and the evidence.
+struct Candidate {
+    delta_bic: f64,
+    effect: Effect,
+    evidence: String,
+    apply: Apply,
+}
+
+enum Apply {
+    /// Correct the series with this closure.
+    Series(Box<dyn Fn(&mut Vec<f64>)>),
+    /// Put this stochastic effect in the model (with its already computed fits).
+    Model(Stochastic, Option<NoiseFit>, Option<NoiseFit>),
+}
+
+/// Runs the loop on one channel's samples `y` at `fs`. `initial`: the estimates of `y` already
+/// made with `cfg` (the OADEV and the spectrum, e.g. by a GPU backend); `None` computes them.
+pub fn close_loop(
+    y: &[f64],
+    fs: f64,
+    aux: &[AuxSeries<'_>],
+    cfg: &LoopConfig,
+    initial: Option<(Deviations, Psd, BinnedPsd)>,
+) -> Option<LoopOutcome> {
+    let (dev, psd, binned) = match initial {
+        Some(e) => e,
+        None => estimates(y, fs, cfg)?,
+    };
+    let (allan, spectrum) = fits(&dev, &psd, &binned, cfg, None);
+    let mut state = State {
+        y: y.to_vec(),
+        dev,
+        psd,
+        binned,
+        allan,
+        spectrum,
+        stochastic: None,
+        changed: false,
+    };
+    let initial = figures(state.allan.as_ref(), state.spectrum.as_ref());
+    let (base_allan, base_spectrum) = (state.allan.clone(), state.spectrum.clone());
+    let p = cfg.confidence.probability().unwrap_or(0.682_689_492);
+    let mut steps = Vec::new();
+    let mut rejected = Vec::new();
+    while steps.len() < MAX_STEPS {
+        let candidates = propose(&state, fs, aux, cfg, p);
+        rejected = candidates
+            .iter()
+            .filter(|c| !(c.delta_bic < 0.0))
+            .map(|c| Rejected {
+                kind: c.effect.kind(),
+                delta_bic: c.delta_bic,
+                note: c.evidence.clone(),
+            })
+            .collect();
+        let Some(best) = candidates
+            .into_iter()
+            .filter(|c| c.delta_bic < 0.0)
+            .min_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic))
+        else {
+            break;
+        };
+        let before = figures(state.allan.as_ref(), state.spectrum.as_ref());
+        match best.apply {
+            Apply::Series(correct) => {
+                correct(&mut state.y);
+                let Some((dev, psd, binned)) = estimates(&state.y, fs, cfg) else {
+                    break;
+                };
+                let shape = state.stochastic.as_ref().map(Stochastic::shape);
+                let (allan, spectrum) = fits(&dev, &psd, &binned, cfg, shape);
+                (state.dev, state.psd, state.binned) = (dev, psd, binned);
+                (state.allan, state.spectrum) = (allan, spectrum);
+                state.changed = true;
+            }
+            Apply::Model(stochastic, allan, spectrum) => {
+                state.stochastic = Some(stochastic);
+                (state.allan, state.spectrum) = (allan, spectrum);
+            }
+        }
+        let after = figures(state.allan.as_ref(), state.spectrum.as_ref());
+        steps.push(LoopStep {
+            effect: best.effect,
+            evidence: best.evidence,
+            delta_bic: best.delta_bic,
+            before,
+            after,
+        });
+    }
+    let final_figures = figures(state.allan.as_ref(), state.spectrum.as_ref());
+    let report = LoopReport {
+        initial,
+        steps,
+        final_figures,
+        rejected,
+        stationarity: split_record(&state.y, fs, 4, 0.99),
+        base_allan,
+        base_spectrum,
+        corrected: state.changed.then(|| (state.dev.clone(), state.psd.clone())),
+    };
+    Some(LoopOutcome {
+        report,
+        allan: state.allan,
+        spectrum: state.spectrum,
+    })
+}
+
+/// The loop's report and the final fits (base terms and the stochastic effect, on the corrected
+/// series).
+#[derive(Debug, Clone)]
+pub struct LoopOutcome {
+    pub report: LoopReport,
+    pub allan: Option<NoiseFit>,
+    pub spectrum: Option<NoiseFit>,
+}
+
+fn describe_excess(e: &Excess) -> String {
+    format!(
+        "raw spectrum {:.4} Hz: {} bins over the model (peak {:.1}×, p = {:.1e})",
+        e.freq_hz, e.bins, e.peak_ratio, e.p_value
+    )
+}
+
+/// Every candidate of the catalogue on the current state.
+fn propose(state: &State, fs: f64, aux: &[AuxSeries<'_>], cfg: &LoopConfig, p: f64) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    let y = &state.y;
+
+    let spikes = find_spikes(y, fs);
+    if !spikes.indices.is_empty() {
+        let s = spikes.clone();
+        out.push(Candidate {
+            delta_bic: spikes.delta_bic,
+            evidence: format!(
+                "time series: {} samples beyond {:.1}σ of the running median, {:.1} % of the variance",
+                spikes.indices.len(),
+                spikes.threshold_sigma,
+                100.0 * spikes.variance_share
+            ),
+            effect: Effect::Spikes(spikes),
+            apply: Apply::Series(Box::new(move |y| remove_spikes(y, &s))),
+        });
+    }
+    if let Some(step) = find_step(y, fs, p) {
+        let s = step.clone();
+        out.push(Candidate {
+            delta_bic: step.delta_bic,
+            evidence: format!(
+                "time series: mean jumps at {:.1} s (dynamic Allan z = {:.1} over {:.1} s windows)",
+                step.time_s, step.z, step.window_s
+            ),
+            effect: Effect::Step(step),
+            apply: Apply::Series(Box::new(move |y| remove_step(y, &s))),
+        });
+    }
+    for a in aux {
+        if a.samples.len() != y.len() {
+            continue;
+        }
+        if let Some(c) = fit_coupling(y, a.samples, fs, p) {
+            let (fit, samples) = (c.clone(), a.samples.to_vec());
+            let correct = move |y: &mut Vec<f64>| remove_coupling(y, &samples, &fit);
+            // A smooth aux (a warm-up) leaves little in the increments the detector tests, while
+            // the drift it drives dominates the Allan variance's long τ: then the model's own
+            // criterion decides, refitted on the corrected series (one parameter per domain),
+            // once the detector has at least nominal evidence (p < 0.05).
+            let mut delta = c.delta_bic;
+            let mut how = "increments";
+            if !(delta < 0.0) && c.p_value < 0.05 {
+                if let Some(d) = refit_delta(state, fs, cfg, &correct) {
+                    if d < delta {
+                        (delta, how) = (d, "refit of both domains");
+                    }
+                }
+            }
+            out.push(Candidate {
+                delta_bic: delta,
+                evidence: format!(
+                    "time series: increments correlate with {} (z = {:.1} at {:.0} s blocks, p = {:.1e}, {:.1} % of the variance); ΔBIC from the {how}",
+                    a.name,
+                    c.z,
+                    c.scale_s,
+                    c.p_value,
+                    100.0 * c.explained_share
+                ),
+                effect: Effect::Coupling {
+                    aux: a.name.to_string(),
+                    fit: c,
+                },
+                apply: Apply::Series(Box::new(correct)),
+            });
+        }
+    }
+
+    let Some(spectrum) = &state.spectrum else {
+        return out;
+    };
+    let stochastic = state.stochastic.as_ref();
+    let min_f = 4.0 * fs / state.psd.nperseg.max(1) as f64;
+    let excess = find_excess(
+        &state.psd,
+        |f| model_one_sided(spectrum, stochastic, f, fs),
+        min_f,
+        LINE_P,
+    );
+    for e in excess.iter().take(3) {
+        let noise = model_one_sided(spectrum, stochastic, e.freq_hz, fs);
+        let Some(sine) = fit_sinusoid(y, fs, e.freq_hz, noise, p) else {
+            continue;
+        };
+        // A line puts its power A²/2 in the group; a resonance spreads power the sinusoid
+        // explains only a little of.
+        let line_share = sine.amplitude * sine.amplitude / 2.0 / e.excess_power.max(f64::MIN_POSITIVE);
+        if line_share >= 0.5 {
+            let s = sine.clone();
+            out.push(Candidate {
+                delta_bic: sine.delta_bic,
+                evidence: describe_excess(e),
+                effect: Effect::Sinusoid(sine),
+                apply: Apply::Series(Box::new(move |y| remove_sinusoid(y, fs, &s))),
+            });
+        } else if stochastic.is_none() {
+            if let Some(c) = resonance_candidate(state, e, fs, cfg) {
+                out.push(c);
+            }
+        }
+    }
+    if stochastic.is_none() {
+        if let Some(c) = gauss_markov_candidate(state, fs, cfg) {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// ΔBIC of a time-domain correction judged by the model: the change of the best score of both
+/// fits after `correct`, plus one parameter per domain.
+fn refit_delta(
+    state: &State,
+    fs: f64,
+    cfg: &LoopConfig,
+    correct: &dyn Fn(&mut Vec<f64>),
+) -> Option<f64> {
+    let mut y = state.y.clone();
+    correct(&mut y);
+    let (dev, psd, binned) = estimates(&y, fs, cfg)?;
+    let shape = state.stochastic.as_ref().map(Stochastic::shape);
+    let (a1, s1) = fits(&dev, &psd, &binned, cfg, shape);
+    let (a0, s0) = (state.allan.as_ref()?, state.spectrum.as_ref()?);
+    let (a1, s1) = (a1?, s1?);
+    let da = score(&a1) + (a1.points.len() as f64).ln() - score(a0);
+    let ds = score(&s1) + (s1.points.len() as f64).ln() - score(s0);
+    Some(da + ds)
+}
+
+/// ΔBIC of a stochastic effect: the change of the best score in each domain plus `extra` shape
+/// parameters per domain. `None` when a fit failed or the effect came out zero.
+fn stochastic_delta(
+    state: &State,
+    allan: Option<&NoiseFit>,
+    spectrum: Option<&NoiseFit>,
+    extra: f64,
+) -> Option<(f64, f64)> {
+    let (a0, s0) = (state.allan.as_ref()?, state.spectrum.as_ref()?);
+    let (a1, s1) = (allan?, spectrum?);
+    if s1.effect.is_none_or(|e| e.value <= 0.0) {
+        return None;
+    }
+    let n_s = s1.points.len() as f64;
+    let n_a = a1.points.len() as f64;
+    let ds = score(s1) + extra * n_s.ln() - score(s0);
+    let da = score(a1) + extra * n_a.ln() - score(a0);
+    Some((ds, da))
+}
+
+fn resonance_candidate(state: &State, e: &Excess, fs: f64, cfg: &LoopConfig) -> Option<Candidate> {
+    let q0 = (e.freq_hz / e.width_hz.max(state.psd.bin_width_hz())).clamp(0.5, 1e4);
+    let mut best: Option<(f64, f64, Resonance, Option<NoiseFit>, Option<NoiseFit>)> = None;
+    for q in [q0 / 2.0, q0 / 1.4, q0, q0 * 1.4, q0 * 2.0] {
+        let shape = Resonance::new(e.freq_hz, q, fs);
+        let spectrum = fit_psd_with(&state.psd, &state.binned, &cfg.fit, Some(&shape)).ok();
+        let s = spectrum.as_ref().map_or(f64::INFINITY, score);
+        if best.as_ref().is_none_or(|b| s < b.0) {
+            best = Some((s, q, shape, None, spectrum));
+        }
+    }
+    let (_, q, shape, _, spectrum) = best?;
+    let allan = fit_avar_with(&state.dev, &cfg.fit, Some(&shape)).ok();
+    let (ds, da) = stochastic_delta(state, allan.as_ref(), spectrum.as_ref(), 2.0)?;
+    let sigma = spectrum.as_ref()?.effect?;
+    Some(Candidate {
+        delta_bic: if ds < 0.0 { ds + da } else { ds.max(0.0) + da.max(0.0) },
+        evidence: format!(
+            "{}; wider than a line (half-power width {:.3} Hz); ΔBIC spectrum {ds:.1}, Allan {da:.1}",
+            describe_excess(e),
+            e.width_hz
+        ),
+        effect: Effect::Resonance {
+            f0_hz: e.freq_hz,
+            q,
+            sigma,
+        },
+        apply: Apply::Model(Stochastic::Resonance(shape), allan, spectrum),
+    })
+}
+
+fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig) -> Option<Candidate> {
+    let duration = state.y.len() as f64 / fs;
+    let (lo, hi) = (10.0 / fs, duration / 10.0);
+    if hi <= lo {
+        return None;
+    }
+    let steps = ((hi / lo).log10() * 4.0).ceil() as usize;
+    let mut best: Option<(f64, f64, Option<NoiseFit>)> = None;
+    for k in 0..=steps {
+        let tc = lo * (hi / lo).powf(k as f64 / steps.max(1) as f64);
+        let shape = GaussMarkov1 { tc_s: tc };
+        let spectrum = fit_psd_with(&state.psd, &state.binned, &cfg.fit, Some(&shape)).ok();
+        let s = spectrum.as_ref().map_or(f64::INFINITY, score);
+        if best.as_ref().is_none_or(|b| s < b.0) {
+            best = Some((s, tc, spectrum));
+        }
+    }
+    let (_, tc, spectrum) = best?;
+    let shape = GaussMarkov1 { tc_s: tc };
+    let allan = fit_avar_with(&state.dev, &cfg.fit, Some(&shape)).ok();
+    let (ds, da) = stochastic_delta(state, allan.as_ref(), spectrum.as_ref(), 1.0)?;
+    let sigma = spectrum.as_ref()?.effect?;
+    let where_ = state
+        .spectrum
+        .as_ref()
+        .map(diagnose)
+        .and_then(|d| d.local)
+        .map_or(String::new(), |l| {
+            format!("; largest spectrum residual {:.3}–{:.3} Hz", l.x_lo, l.x_hi)
+        });
+    Some(Candidate {
+        delta_bic: if ds < 0.0 { ds + da } else { ds.max(0.0) + da.max(0.0) },
+        evidence: format!(
+            "Lorentzian knee near {:.3} Hz (Tc = {tc:.3} s){where_}; ΔBIC spectrum {ds:.1}, Allan {da:.1}",
+            1.0 / (2.0 * std::f64::consts::PI * tc)
+        ),
+        effect: Effect::GaussMarkov { tc_s: tc, sigma },
+        apply: Apply::Model(Stochastic::GaussMarkov(shape), allan, spectrum),
+    })
+}

@@ -1,0 +1,239 @@
+//! The main job end to end: `imunoise simulate` writes a recording with known coefficients,
+//! `imunoise analyze` reads it back through the CLI and must find them, in every output.
+
+use std::path::Path;
+
+use serde_json::Value;
+
+use super::support::*;
+
+fn run_ok(args: &[&str], cwd: &Path) -> std::process::Output {
+    let out = imunoise(args, cwd);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// The estimate of `symbol` in `fit` as (value, lo, hi) in `unit`, if kept.
+fn estimate(fit: &Value, symbol: &str, unit: &str) -> Option<(f64, f64, f64)> {
+    let e = fit["estimates"]
+        .as_array()?
+        .iter()
+        .find(|e| e["symbol"] == symbol)?;
+    let u = e["units"].as_array()?.iter().find(|u| u["unit"] == unit)?;
+    Some((
+        u["value"].as_f64()?,
+        u["lo"].as_f64()?,
+        u["hi"].as_f64()?,
+    ))
+}
+
+fn kept(fit: &Value) -> Vec<String> {
+    fit["estimates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["symbol"].as_str().unwrap().to_string())
+        .collect()
+}
+
+/// Two gyro axes, N = 0.2 °/√h, B = 4 °/h, K = 30 °/h/√h, 3 h at 50 Hz: every output agrees with
+/// the truth (N ±5 %, B and K ±25 %, no Q or R), written by the simulator from flags.
+#[test]
+fn simulate_then_analyze_recovers_the_coefficients_in_every_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("imu.arrow");
+    let out_dir = dir.path().join("out");
+    let f = file.to_str().unwrap();
+    run_ok(
+        &[
+            "simulate", "-o", f, "--rate", "50", "--duration", "10800", "--seed", "11",
+            "--axes", "2", "--noise", "N=0.2deg/sqrt(h)", "--noise", "B=4 deg/h",
+            "--noise", "K=30deg/h/sqrt(h)", "--quiet",
+        ],
+        dir.path(),
+    );
+    run_ok(
+        &[
+            "analyze", f, "-o", out_dir.to_str().unwrap(), "--nperseg", "65536",
+            "--backend", "cpu", "--quiet",
+        ],
+        dir.path(),
+    );
+    let doc: Value =
+        serde_json::from_slice(&std::fs::read(out_dir.join("report.json")).unwrap()).unwrap();
+    assert_eq!(doc["schema_version"], 2);
+    let analysis = doc["files"][0]["analysis"].as_array().unwrap();
+    assert_eq!(analysis.len(), 2);
+    for a in analysis {
+        assert_eq!(a["sensor"], "gyro");
+        for domain in ["allan", "spectrum"] {
+            let fit = &a[domain];
+            assert_eq!(fit["status"], "ok", "{domain}: {fit}");
+            let (n, _, _) = estimate(fit, "N", "deg/sqrt(h)").expect("N kept");
+            assert!((n / 0.2 - 1.0).abs() < 0.05, "{domain} N = {n}");
+            let k = kept(fit);
+            assert!(!k.contains(&"Q".into()) && !k.contains(&"R".into()), "{domain}: {k:?}");
+        }
+        // B and K from the Allan variance (the spectrum sees flicker only below ~1 mHz here).
+        let (b, _, _) = estimate(&a["allan"], "B", "deg/h").expect("B kept");
+        assert!((b / 4.0 - 1.0).abs() < 0.25, "B = {b}");
+        let (k, _, _) = estimate(&a["allan"], "K", "deg/h/sqrt(h)").expect("K kept");
+        assert!((k / 30.0 - 1.0).abs() < 0.25, "K = {k}");
+        let n_row = a["comparison"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|r| r["symbol"] == "N")
+            .unwrap();
+        assert_eq!(n_row["overlap"], true, "{n_row}");
+    }
+
+    // The coefficient table says the same in the datasheet unit.
+    let csv = std::fs::read_to_string(out_dir.join("coefficients.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let row = csv
+        .lines()
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .find(|r| r[col("channel")] == "gyro_x" && r[col("fit")] == "allan" && r[col("term")] == "N")
+        .unwrap();
+    assert_eq!(row[col("unit")], "deg/sqrt(h)");
+    assert_eq!(row[col("status")], "kept");
+    let n: f64 = row[col("value")].parse().unwrap();
+    assert!((n / 0.2 - 1.0).abs() < 0.05, "{n}");
+
+    // Kalibr: continuous-time N in rad/s/√Hz, the larger of the two axes.
+    let yaml = std::fs::read_to_string(out_dir.join("imu/imu.yaml")).unwrap();
+    let value = |key: &str| -> f64 {
+        let line = yaml
+            .lines()
+            .find(|l| l.starts_with(key))
+            .unwrap_or_else(|| panic!("{key} in\n{yaml}"));
+        line[key.len() + 1..]
+            .split('#')
+            .next()
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap()
+    };
+    let n_si = 0.2 * std::f64::consts::PI / 180.0 / 60.0;
+    assert!((value("gyroscope_noise_density") / n_si - 1.0).abs() < 0.05);
+    let k_si = 30.0 * std::f64::consts::PI / 180.0 / 3600.0 / 60.0;
+    assert!((value("gyroscope_random_walk") / k_si - 1.0).abs() < 0.25);
+    assert_eq!(value("update_rate"), 50.0);
+    assert!(!yaml.contains("accelerometer_noise_density:"), "{yaml}");
+    assert!(yaml.contains("CONTINUOUS-TIME"));
+
+    // The summary has the paper-style tables in both unit systems.
+    let md = std::fs::read_to_string(out_dir.join("summary.md")).unwrap();
+    for needle in [
+        "angle random walk (N)",
+        "PSD [°/√h]",
+        "AV [°/s/√Hz]",
+        "bias instability (B)",
+        "AV [°/h]",
+        "| gyro_x |",
+    ] {
+        assert!(md.contains(needle), "{needle} not in summary:\n{md}");
+    }
+}
+
+#[test]
+fn simulate_writes_what_info_reads_and_a_spec_file_drives_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("spec.json");
+    std::fs::write(
+        &spec,
+        r#"{ "rate_hz": 200.0, "duration_s": 30.0, "seed": 5,
+             "channels": [
+               { "name": "ax", "sensor": "accel", "bias": 0.1, "noise": { "n": 1e-3 } },
+               { "name": "gz", "sensor": "gyro", "noise": { "n": 1e-4 },
+                 "sinusoids": [{ "amplitude": 1e-3, "freq_hz": 7.0 }],
+                 "temperature_coefficient": 1e-4 } ],
+             "temperature": { "start_degc": 20.0, "rise_degc": 5.0, "warmup_s": 10.0 } }"#,
+    )
+    .unwrap();
+    let file = dir.path().join("rec.arrow");
+    run_ok(
+        &[
+            "simulate", "--spec", spec.to_str().unwrap(), "-o", file.to_str().unwrap(),
+            "--f32", "--seed", "6",
+        ],
+        dir.path(),
+    );
+    let out = run_ok(&["info", file.to_str().unwrap(), "--json"], dir.path());
+    let doc: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rec = &doc["files"][0]["recording"];
+    assert_eq!(rec["rate_hz"], 200.0);
+    assert_eq!(rec["rate_source"], "metadata");
+    assert_eq!(rec["samples"], 6000);
+    let channels: Vec<(String, String, String, String)> = rec["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            let s = |k: &str| c[k].as_str().unwrap_or("").to_string();
+            (s("name"), s("kind"), s("unit"), s("stored_type"))
+        })
+        .collect();
+    assert_eq!(
+        channels,
+        [
+            ("ax".into(), "accel".into(), "m/s^2".into(), "float32".into()),
+            ("gz".into(), "gyro".into(), "rad/s".into(), "float32".into()),
+            ("temperature".into(), "temperature".into(), "degC".into(), "float32".into()),
+        ]
+    );
+    let mean = doc["files"][0]["quality"]["channels"][0]["mean"].as_f64().unwrap();
+    assert!((mean - 0.1).abs() < 1e-3, "{mean}");
+}
+
+#[test]
+fn simulate_refuses_bad_specifications_before_writing() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("x.arrow");
+    let f = file.to_str().unwrap();
+    for (args, needle) in [
+        (vec!["--rate", "100", "--duration", "10", "--noise", "N=3deg/h"], "bias instability"),
+        (vec!["--rate", "100", "--duration", "10", "--noise", "N=-1"], ">= 0"),
+        (vec!["--rate", "100", "--duration", "10", "--noise", "X=1"], "unknown term"),
+        (vec!["--rate", "100", "--duration", "10", "--noise", "N=1furlong"], "furlong"),
+        (vec!["--duration", "10"], "--rate"),
+        (vec!["--rate", "100", "--duration", "10", "--sensor", "baro"], "gyro or accel"),
+        (vec!["--rate", "0", "--duration", "10"], "rate"),
+    ] {
+        let mut all = vec!["simulate", "-o", f];
+        all.extend(args.iter().copied());
+        let out = imunoise(&all, dir.path());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert!(!file.exists(), "{args:?} wrote a file");
+    }
+}
+
+/// Fit flags are validated before any file is read.
+#[test]
+fn analyze_refuses_bad_fit_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    for (args, needle) in [
+        (vec!["--terms", "N,X"], "unknown term"),
+        (vec!["--criterion", "aic"], "bic or aicc"),
+        (vec!["--bins-per-decade", "0"], "bins-per-decade"),
+        (vec!["--scaling", "spectrum"], "density"),
+        (vec!["--fit-min-freq", "5", "--fit-max-freq", "1"], "below"),
+    ] {
+        let mut all = vec!["analyze", "missing.arrow"];
+        all.extend(args.iter().copied());
+        let out = imunoise(&all, dir.path());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+}
