@@ -10,15 +10,15 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::analysis::{self, ChannelAnalysis, ChannelInput};
 use crate::avar::{AvarError, Confidence, Deviations, Statistic, TauGrid};
+use crate::effects::{AuxSeries, LoopConfig};
 use crate::estimate::Backend;
 use crate::io::{self, InputError, OpenOptions, Recording};
+use crate::model::{FitOptions, Sensor};
 use crate::psd::{log_bin, BinnedPsd, Psd, PsdError, WelchPlan};
 use crate::quality::{Cleaner, QualityOptions, QualityReport};
-use crate::analysis::{self, ChannelAnalysis, ChannelInput};
-use crate::effects::{AuxSeries, LoopConfig};
 use crate::units::Kind;
-use crate::model::{FitOptions, Sensor};
 use crate::Error;
 
 /// The τ values asked for: a grid of averaging factors, or explicit τ in seconds (converted to

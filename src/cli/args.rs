@@ -93,7 +93,12 @@ pub struct FitFlags {
     /// Terms the fit may use, comma-separated: Q (quantisation), N (angle/velocity random walk),
     /// B (bias instability), K (rate/acceleration random walk), R (rate ramp). Each enters only if
     /// the information criterion says it earns its place.
-    #[arg(long, default_value = "Q,N,B,K,R", value_delimiter = ',', value_name = "TERM,...")]
+    #[arg(
+        long,
+        default_value = "Q,N,B,K,R",
+        value_delimiter = ',',
+        value_name = "TERM,..."
+    )]
     pub terms: Vec<String>,
 
     /// Information criterion that admits terms: bic (consistent: finds the terms present) or aicc.

@@ -71,8 +71,24 @@ pub struct Job {
 pub fn job(cli: Cli) -> Result<Job, UsageError> {
     let (command, input, welch, avar, fit, output, backend) = match cli.command {
         Command::Info(a) => ("info", a.input, None, None, None, a.output, a.backend),
-        Command::Psd(a) => ("psd", a.input, Some(a.welch), None, None, a.output, a.backend),
-        Command::Avar(a) => ("avar", a.input, None, Some(a.avar), None, a.output, a.backend),
+        Command::Psd(a) => (
+            "psd",
+            a.input,
+            Some(a.welch),
+            None,
+            None,
+            a.output,
+            a.backend,
+        ),
+        Command::Avar(a) => (
+            "avar",
+            a.input,
+            None,
+            Some(a.avar),
+            None,
+            a.output,
+            a.backend,
+        ),
         Command::Analyze(a) => {
             let (w, v, f) = (Some(a.welch), Some(a.avar), Some(a.fit));
             ("analyze", a.input, w, v, f, a.output, a.backend)
@@ -86,7 +102,12 @@ pub fn job(cli: Cli) -> Result<Job, UsageError> {
     let kalibr_topic = fit.as_ref().map(|f| f.rostopic.clone());
     let residual_loop = fit.as_ref().is_some_and(|f| !f.no_loop);
     let fit = match fit {
-        Some(f) => Some(fit_options(&f, welch.as_ref(), avar.as_mut(), &mut options)?),
+        Some(f) => Some(fit_options(
+            &f,
+            welch.as_ref(),
+            avar.as_mut(),
+            &mut options,
+        )?),
         None => None,
     };
     let mut output = output_config(&output)?;
@@ -341,7 +362,10 @@ fn fit_options(
     let terms: Vec<Term> = f
         .terms
         .iter()
-        .map(|t| t.parse::<Term>().map_err(|e| usage(format!("--terms: {e}"))))
+        .map(|t| {
+            t.parse::<Term>()
+                .map_err(|e| usage(format!("--terms: {e}")))
+        })
         .collect::<Result<_, _>>()?;
     if terms.is_empty() {
         return Err(usage("--terms: name at least one term"));
@@ -350,16 +374,23 @@ fn fit_options(
         .criterion
         .parse()
         .map_err(|e| usage(format!("--criterion: {e}")))?;
-    for (flag, v) in [("--fit-min-freq", f.fit_min_freq), ("--fit-max-freq", f.fit_max_freq)] {
+    for (flag, v) in [
+        ("--fit-min-freq", f.fit_min_freq),
+        ("--fit-max-freq", f.fit_max_freq),
+    ] {
         if let Some(v) = v {
             if !(v.is_finite() && v > 0.0) {
-                return Err(usage(format!("{flag} {v}: must be a positive number of Hz")));
+                return Err(usage(format!(
+                    "{flag} {v}: must be a positive number of Hz"
+                )));
             }
         }
     }
     if let (Some(lo), Some(hi)) = (f.fit_min_freq, f.fit_max_freq) {
         if lo >= hi {
-            return Err(usage(format!("--fit-min-freq {lo} must be below --fit-max-freq {hi}")));
+            return Err(usage(format!(
+                "--fit-min-freq {lo} must be below --fit-max-freq {hi}"
+            )));
         }
     }
     if let Some(w) = welch {

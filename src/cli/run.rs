@@ -171,6 +171,25 @@ pub fn run(job: &Job) -> i32 {
                 if !job.output.quiet {
                     bar.line(&summary_line(&r));
                 }
+                for a in r.analysis.iter().flatten() {
+                    let Some(l) = &a.residual_loop else { continue };
+                    let found: Vec<String> = l
+                        .steps
+                        .iter()
+                        .map(|s| report::effect_line(&s.effect))
+                        .collect();
+                    if !job.output.quiet {
+                        bar.line(&format!(
+                            "found {}: {}",
+                            a.channel,
+                            if found.is_empty() {
+                                "nothing beyond the IEEE model".to_string()
+                            } else {
+                                found.join("; ")
+                            }
+                        ));
+                    }
+                }
                 for note in &r.backend_notes {
                     bar.line(&format!("note  {}: {note}", path.display()));
                 }
@@ -247,12 +266,19 @@ fn write_outputs(
     let refs: Vec<&FileResult> = ok.iter().collect();
     let formats = job.output.formats;
     if job.work.fit.is_some() {
-        report::write_table(dir, "coefficients", &report::coefficients_table(&refs), formats)?;
+        report::write_table(
+            dir,
+            "coefficients",
+            &report::coefficients_table(&refs),
+            formats,
+        )?;
         let md = report::summary_markdown(&refs, failures, elapsed_s);
         report::write_atomically(&dir.join("summary.md"), |w| w.write_all(md.as_bytes()))?;
         let topic = job.output.kalibr_topic.as_deref().unwrap_or("/imu0");
         for (r, folder) in ok.iter().zip(per_file_folders(ok)) {
-            let Some(analysis) = &r.analysis else { continue };
+            let Some(analysis) = &r.analysis else {
+                continue;
+            };
             let folder = dir.join(folder);
             std::fs::create_dir_all(&folder).map_err(|e| OutputError::new(&folder, e))?;
             let yaml = report::imu_yaml(

@@ -30,7 +30,9 @@ fn noise_flag(text: &str, sensor: Sensor) -> Result<(Term, f64), UsageError> {
     let (term, rest) = text
         .split_once('=')
         .ok_or_else(|| usage(format!("--noise {text:?}: expected TERM=VALUE[UNIT]")))?;
-    let term: Term = term.parse().map_err(|e| usage(format!("--noise {text:?}: {e}")))?;
+    let term: Term = term
+        .parse()
+        .map_err(|e| usage(format!("--noise {text:?}: {e}")))?;
     let rest = rest.trim();
     let split = rest
         .find(|c: char| !(c.is_ascii_digit() || matches!(c, '.' | 'e' | 'E' | '+' | '-')))
@@ -88,11 +90,7 @@ pub fn job(a: &SimulateArgs) -> Result<SimulateJob, UsageError> {
         let sensor = match a.sensor.trim() {
             "gyro" => Sensor::Gyro,
             "accel" => Sensor::Accel,
-            other => {
-                return Err(usage(format!(
-                    "--sensor {other:?}: expected gyro or accel"
-                )))
-            }
+            other => return Err(usage(format!("--sensor {other:?}: expected gyro or accel"))),
         };
         if a.axes == 0 || a.axes > 26 {
             return Err(usage("--axes must be between 1 and 26"));
@@ -123,7 +121,8 @@ pub fn job(a: &SimulateArgs) -> Result<SimulateJob, UsageError> {
     }
     let spec: SimSpec =
         serde_json::from_value(spec).map_err(|e| usage(format!("specification: {e}")))?;
-    spec.validate().map_err(|e| usage(format!("specification: {e}")))?;
+    spec.validate()
+        .map_err(|e| usage(format!("specification: {e}")))?;
     Ok(SimulateJob {
         spec,
         out: a.out.clone(),

@@ -77,7 +77,10 @@ pub fn diagnose(fit: &NoiseFit) -> Diagnostics {
     // Wald–Wolfowitz runs test on the signs.
     let pos = z.iter().filter(|v| **v > 0.0).count() as f64;
     let neg = n as f64 - pos;
-    let runs = 1 + z.windows(2).filter(|w| (w[0] > 0.0) != (w[1] > 0.0)).count();
+    let runs = 1 + z
+        .windows(2)
+        .filter(|w| (w[0] > 0.0) != (w[1] > 0.0))
+        .count();
     let (runs_z, runs_p) = if pos > 0.0 && neg > 0.0 && n >= 6 {
         let total = pos + neg;
         let mean = 2.0 * pos * neg / total + 1.0;

@@ -47,7 +47,11 @@ pub fn write_recording(
     if let Some(c) = columns.iter().find(|c| c.samples.len() != n) {
         return Err(OutputError::new(
             path,
-            format!("column {} has {} samples, expected {n}", c.name, c.samples.len()),
+            format!(
+                "column {} has {} samples, expected {n}",
+                c.name,
+                c.samples.len()
+            ),
         ));
     }
     let value_type = match stored {

@@ -133,7 +133,15 @@ pub fn fit_avar_with(
     }
     screen.cross.clear();
     let forced = if effect.is_some() { 1 << EFFECT } else { 0 };
-    select_and_fit(&problem, &screen, &tau, opts.mask(), forced, opts, Domain::Allan)
+    select_and_fit(
+        &problem,
+        &screen,
+        &tau,
+        opts.mask(),
+        forced,
+        opts,
+        Domain::Allan,
+    )
 }
 
 /// Variance of the ramp × noise cross term of point i per unit μ_R·μ_noise.

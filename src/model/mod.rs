@@ -81,10 +81,10 @@ mod units;
 
 pub use avar_fit::{fit_avar, fit_avar_with};
 pub use compare::{compare, TermComparison};
+pub use effect::EffectShape;
 pub use error::FitError;
 pub use options::FitOptions;
 pub use psd_fit::{fit_psd, fit_psd_with};
-pub use effect::EffectShape;
 pub use result::{
     Candidate, Criterion, Domain, EffectEstimate, FitPoint, NoiseFit, TermEstimate, UpperLimit,
 };

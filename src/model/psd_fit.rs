@@ -153,5 +153,13 @@ pub fn fit_psd_with(
     };
     let x: Vec<f64> = keep.iter().map(|&b| binned.freq_hz[b]).collect();
     let forced = if effect.is_some() { 1 << EFFECT } else { 0 };
-    select_and_fit(&problem, &problem, &x, opts.mask(), forced, opts, Domain::Spectrum)
+    select_and_fit(
+        &problem,
+        &problem,
+        &x,
+        opts.mask(),
+        forced,
+        opts,
+        Domain::Spectrum,
+    )
 }

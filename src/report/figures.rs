@@ -102,7 +102,14 @@ pub fn avar_figure(a: &ChannelAnalysis, original: &Deviations, unit: &str) -> Fi
         });
     }
     main.series.push(Series::Points {
-        label: Some(if corrected.is_some() { "corrected (OADEV)" } else { "OADEV" }.into()),
+        label: Some(
+            if corrected.is_some() {
+                "corrected (OADEV)"
+            } else {
+                "OADEV"
+            }
+            .into(),
+        ),
         x: shown.tau_s.clone(),
         y: shown.deviation(),
         lo: None,
@@ -110,7 +117,12 @@ pub fn avar_figure(a: &ChannelAnalysis, original: &Deviations, unit: &str) -> Fi
         style: Style::points(PALETTE[0]),
     });
     let (Some(&t0), Some(&t1)) = (shown.tau_s.first(), shown.tau_s.last()) else {
-        return figure(a, "Allan deviation", main, residual_panel("τ (s)", None, None));
+        return figure(
+            a,
+            "Allan deviation",
+            main,
+            residual_panel("τ (s)", None, None),
+        );
     };
     let taus = log_grid(t0, t1, 200);
     let fit = a.allan_fit();
@@ -119,7 +131,9 @@ pub fn avar_figure(a: &ChannelAnalysis, original: &Deviations, unit: &str) -> Fi
             main.series.push(Series::line(
                 &format!("{} = {:.3e}", e.term.symbol(), e.value),
                 taus.clone(),
-                taus.iter().map(|&t| e.value * e.term.avar_unit(t).sqrt()).collect(),
+                taus.iter()
+                    .map(|&t| e.value * e.term.avar_unit(t).sqrt())
+                    .collect(),
                 Style::dashed(PALETTE[(k + 1) % PALETTE.len()]),
             ));
         }
@@ -128,7 +142,9 @@ pub fn avar_figure(a: &ChannelAnalysis, original: &Deviations, unit: &str) -> Fi
             main.series.push(Series::line(
                 label,
                 taus.clone(),
-                taus.iter().map(|&t| amp * shape.avar_unit(t, fs).sqrt()).collect(),
+                taus.iter()
+                    .map(|&t| amp * shape.avar_unit(t, fs).sqrt())
+                    .collect(),
                 Style::dashed(PALETTE[5]),
             ));
         }
@@ -229,7 +245,10 @@ pub fn psd_figure(a: &ChannelAnalysis, original: &ChannelPsd, unit: &str) -> Fig
     }
     for s in a.residual_loop.iter().flat_map(|l| &l.steps) {
         let (f, label) = match &s.effect {
-            Effect::Sinusoid(sine) => (sine.freq_hz, format!("line {:.3} Hz (removed)", sine.freq_hz)),
+            Effect::Sinusoid(sine) => (
+                sine.freq_hz,
+                format!("line {:.3} Hz (removed)", sine.freq_hz),
+            ),
             Effect::Resonance { f0_hz, .. } => (*f0_hz, format!("resonance {f0_hz:.3} Hz")),
             _ => continue,
         };
@@ -239,7 +258,10 @@ pub fn psd_figure(a: &ChannelAnalysis, original: &ChannelPsd, unit: &str) -> Fig
             style: Style::dashed(PALETTE[1]),
         });
     }
-    let base = a.residual_loop.as_ref().and_then(|l| l.base_spectrum.as_ref());
+    let base = a
+        .residual_loop
+        .as_ref()
+        .and_then(|l| l.base_spectrum.as_ref());
     figure(a, "Spectrum", main, residual_panel("f (Hz)", fit, base))
 }
 

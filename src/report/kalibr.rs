@@ -23,14 +23,12 @@ use super::summary::sig4;
 /// The value Kalibr gets for `term` of one channel: (SI value, is an upper limit, domain).
 fn value_of(a: &ChannelAnalysis, term: Term) -> Option<(f64, bool, &'static str)> {
     let pick = |fit: &NoiseFit, domain| {
-        fit.get(term)
-            .map(|e| (e.value, false, domain))
-            .or_else(|| {
-                fit.upper_limits
-                    .iter()
-                    .find(|u| u.term == term)
-                    .map(|u| (u.upper, true, domain))
-            })
+        fit.get(term).map(|e| (e.value, false, domain)).or_else(|| {
+            fit.upper_limits
+                .iter()
+                .find(|u| u.term == term)
+                .map(|u| (u.upper, true, domain))
+        })
     };
     a.allan_fit()
         .and_then(|f| pick(f, "AV"))
@@ -39,10 +37,7 @@ fn value_of(a: &ChannelAnalysis, term: Term) -> Option<(f64, bool, &'static str)
 
 fn describe(v: Option<(f64, bool, &'static str)>) -> String {
     match v {
-        Some((x, upper, domain)) => format!(
-            "{}{x:.4e} ({domain})",
-            if upper { "< " } else { "" }
-        ),
+        Some((x, upper, domain)) => format!("{}{x:.4e} ({domain})", if upper { "< " } else { "" }),
         None => "not available".into(),
     }
 }
@@ -50,19 +45,44 @@ fn describe(v: Option<(f64, bool, &'static str)>) -> String {
 /// The file's text for the channels of one recording.
 pub fn imu_yaml(source: &str, rate_hz: f64, topic: &str, analysis: &[ChannelAnalysis]) -> String {
     let mut out = String::new();
-    let _ = writeln!(out, "# Kalibr IMU noise model written by imunoise {}", env!("CARGO_PKG_VERSION"));
+    let _ = writeln!(
+        out,
+        "# Kalibr IMU noise model written by imunoise {}",
+        env!("CARGO_PKG_VERSION")
+    );
     let _ = writeln!(out, "# source: {source}");
     let _ = writeln!(out, "#");
-    let _ = writeln!(out, "# Convention: CONTINUOUS-TIME densities, as Kalibr expects:");
+    let _ = writeln!(
+        out,
+        "# Convention: CONTINUOUS-TIME densities, as Kalibr expects:"
+    );
     let _ = writeln!(out, "#   *_noise_density = N (angle/velocity random walk): gyro rad/s/sqrt(Hz), accel m/s^2/sqrt(Hz)");
     let _ = writeln!(out, "#   *_random_walk   = K (rate/acceleration random walk): gyro rad/s^2/sqrt(Hz), accel m/s^3/sqrt(Hz)");
-    let _ = writeln!(out, "#   (Kalibr multiplies the density by sqrt(update_rate) and the random walk by");
-    let _ = writeln!(out, "#   1/sqrt(update_rate) to get discrete-time standard deviations.)");
-    let _ = writeln!(out, "# Each value is the worst (largest) axis of the Allan-variance fit (spectrum fit");
-    let _ = writeln!(out, "# where that failed). A random walk the fit did not find significant is given as");
-    let _ = writeln!(out, "# its upper limit (marked '<' below). Inflate for your filter as you see fit.");
+    let _ = writeln!(
+        out,
+        "#   (Kalibr multiplies the density by sqrt(update_rate) and the random walk by"
+    );
+    let _ = writeln!(
+        out,
+        "#   1/sqrt(update_rate) to get discrete-time standard deviations.)"
+    );
+    let _ = writeln!(
+        out,
+        "# Each value is the worst (largest) axis of the Allan-variance fit (spectrum fit"
+    );
+    let _ = writeln!(
+        out,
+        "# where that failed). A random walk the fit did not find significant is given as"
+    );
+    let _ = writeln!(
+        out,
+        "# its upper limit (marked '<' below). Inflate for your filter as you see fit."
+    );
     let mut keys = Vec::new();
-    for (sensor, prefix) in [(Sensor::Gyro, "gyroscope"), (Sensor::Accel, "accelerometer")] {
+    for (sensor, prefix) in [
+        (Sensor::Gyro, "gyroscope"),
+        (Sensor::Accel, "accelerometer"),
+    ] {
         let channels: Vec<&ChannelAnalysis> =
             analysis.iter().filter(|a| a.sensor == sensor).collect();
         let _ = writeln!(out, "#\n# {prefix} axes:");
@@ -80,7 +100,10 @@ pub fn imu_yaml(source: &str, rate_hz: f64, topic: &str, analysis: &[ChannelAnal
                 describe(value_of(a, Term::BiasInstability)),
             );
         }
-        for (term, key) in [(Term::RandomWalk, "noise_density"), (Term::RateRandomWalk, "random_walk")] {
+        for (term, key) in [
+            (Term::RandomWalk, "noise_density"),
+            (Term::RateRandomWalk, "random_walk"),
+        ] {
             let worst = channels
                 .iter()
                 .filter_map(|a| value_of(a, term).map(|v| (v, &a.channel)))
@@ -95,7 +118,11 @@ pub fn imu_yaml(source: &str, rate_hz: f64, topic: &str, analysis: &[ChannelAnal
             }
         }
     }
-    let _ = writeln!(out, "#\n# update_rate: the recording's sample rate, Hz ({}).", sig4(rate_hz));
+    let _ = writeln!(
+        out,
+        "#\n# update_rate: the recording's sample rate, Hz ({}).",
+        sig4(rate_hz)
+    );
     for k in keys {
         let _ = writeln!(out, "{k}");
     }

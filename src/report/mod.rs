@@ -22,7 +22,7 @@ pub use atomic::{write_atomically, OutputError};
 pub use figures::{avar_figure, psd_figure};
 pub use kalibr::imu_yaml;
 pub use model::{analysis_json, coefficients_table, units_of};
-pub use summary::{sig4, summary_markdown};
+pub use summary::{effect_line, sig4, summary_markdown};
 pub use table::{Column, Table};
 
 use crate::avar::Deviations;
@@ -340,7 +340,8 @@ pub fn write_plots(folder: &Path, r: &FileResult) -> Result<(), OutputError> {
         return Ok(());
     };
     for a in analysis {
-        let unit = channel_unit(&r.recording, &a.channel).map_or("raw".to_string(), |u| u.to_string());
+        let unit =
+            channel_unit(&r.recording, &a.channel).map_or("raw".to_string(), |u| u.to_string());
         let mut figures = Vec::new();
         if let Some(d) = r
             .avar

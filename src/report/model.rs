@@ -44,8 +44,9 @@ fn term_of(v: &Value) -> Option<Term> {
 
 /// Adds `symbol` and `units` (the value in SI and datasheet units) to every estimate and limit.
 fn decorate_fit(sensor: Sensor, fit: &mut Value) {
-    fit["chi2_per_dof"] = json!(fit["chi2"].as_f64().unwrap_or(f64::NAN)
-        / fit["dof"].as_f64().unwrap_or(1.0).max(1.0));
+    fit["chi2_per_dof"] = json!(
+        fit["chi2"].as_f64().unwrap_or(f64::NAN) / fit["dof"].as_f64().unwrap_or(1.0).max(1.0)
+    );
     for list in ["estimates", "upper_limits"] {
         let Some(items) = fit.get_mut(list).and_then(Value::as_array_mut) else {
             continue;
@@ -110,7 +111,10 @@ pub fn coefficients_table(results: &[&FileResult]) -> Table {
         for a in r.analysis.iter().flatten() {
             for (domain, fit) in fits(a) {
                 let Some(fit) = fit else { continue };
-                let kept = fit.estimates.iter().map(|e| (e.term, "kept", e.value, e.lo, e.hi));
+                let kept = fit
+                    .estimates
+                    .iter()
+                    .map(|e| (e.term, "kept", e.value, e.lo, e.hi));
                 let absent = fit
                     .upper_limits
                     .iter()

@@ -6,6 +6,7 @@
 use std::fmt::Write;
 
 use crate::analysis::ChannelAnalysis;
+use crate::effects::{Effect, ErrorFigures};
 use crate::model::{NoiseFit, Sensor, Term, TermEstimate};
 use crate::pipeline::FileResult;
 
@@ -102,7 +103,9 @@ fn kept(fit: Option<&NoiseFit>) -> String {
 }
 
 fn chi2(fit: Option<&NoiseFit>) -> String {
-    fit.map_or("–".into(), |f| format!("{:.2} ({} dof)", f.chi2_per_dof(), f.dof))
+    fit.map_or("–".into(), |f| {
+        format!("{:.2} ({} dof)", f.chi2_per_dof(), f.dof)
+    })
 }
 
 fn failure(r: &Result<NoiseFit, crate::model::FitError>) -> Option<String> {
@@ -192,6 +195,7 @@ fn file_section(out: &mut String, r: &FileResult) {
             chi2(a.spectrum_fit())
         );
     }
+    loop_section(out, analysis);
     for a in analysis {
         for (what, r) in [("AV", &a.allan), ("PSD", &a.spectrum)] {
             if let Some(reason) = failure(r) {
@@ -238,4 +242,90 @@ pub fn summary_markdown(ok: &[&FileResult], failed: &[(String, String)], elapsed
         }
     }
     out
+}
+
+/// One line per effect found: what, its parameters, the evidence, the error before and after.
+pub fn effect_line(e: &Effect) -> String {
+    match e {
+        Effect::Sinusoid(s) => format!(
+            "line at {:.4} Hz [{:.4}, {:.4}], amplitude {} [{}, {}]",
+            s.freq_hz,
+            s.freq_lo,
+            s.freq_hi,
+            sig4(s.amplitude),
+            sig4(s.amplitude_lo),
+            sig4(s.amplitude_hi)
+        ),
+        Effect::Resonance { f0_hz, q, sigma } => format!(
+            "resonance at {f0_hz:.3} Hz, Q {q:.1}, σ {} [{}, {}]",
+            sig4(sigma.value),
+            sig4(sigma.lo),
+            sig4(sigma.hi)
+        ),
+        Effect::GaussMarkov { tc_s, sigma } => format!(
+            "Gauss–Markov process, Tc {} s, σ {} [{}, {}]",
+            sig4(*tc_s),
+            sig4(sigma.value),
+            sig4(sigma.lo),
+            sig4(sigma.hi)
+        ),
+        Effect::Coupling { aux, fit } => format!(
+            "coupling to {aux}: {} [{}, {}] per unit, {:.1} % of the variance",
+            sig4(fit.coefficient),
+            sig4(fit.lo),
+            sig4(fit.hi),
+            100.0 * fit.explained_share
+        ),
+        Effect::Spikes(s) => format!(
+            "{} spikes (first at {:.2} s), {:.2} % of the variance",
+            s.indices.len(),
+            s.times_s.first().copied().unwrap_or(f64::NAN),
+            100.0 * s.variance_share
+        ),
+        Effect::Step(s) => format!(
+            "bias step at {:.1} s of {} [{}, {}]",
+            s.time_s,
+            sig4(s.size),
+            sig4(s.lo),
+            sig4(s.hi)
+        ),
+    }
+}
+
+fn errors(f: &ErrorFigures) -> String {
+    let d = |x: &Option<crate::effects::residuals::Diagnostics>| {
+        x.as_ref().map_or("–".to_string(), |d| {
+            format!("χ²/dof {:.2}, RMS log {:.3}", d.chi2_per_dof, d.rms_log)
+        })
+    };
+    format!("AV {}; PSD {}", d(&f.allan), d(&f.spectrum))
+}
+
+fn loop_section(out: &mut String, analysis: &[ChannelAnalysis]) {
+    let _ = writeln!(out, "\n### Residual loop: effects the IEEE model lacks\n");
+    for a in analysis {
+        let Some(l) = &a.residual_loop else { continue };
+        if l.steps.is_empty() {
+            let _ = writeln!(
+                out,
+                "- **{}**: nothing added ({}).",
+                a.channel,
+                errors(&l.final_figures)
+            );
+            continue;
+        }
+        let _ = writeln!(out, "- **{}**:", a.channel);
+        for (i, s) in l.steps.iter().enumerate() {
+            let _ = writeln!(
+                out,
+                "  {}. {} — ΔBIC {:.1}. Evidence: {}. Before: {}. After: {}.",
+                i + 1,
+                effect_line(&s.effect),
+                s.delta_bic,
+                s.evidence,
+                errors(&s.before),
+                errors(&s.after)
+            );
+        }
+    }
 }

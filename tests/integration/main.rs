@@ -9,5 +9,6 @@ mod io;
 mod model;
 mod psd;
 mod readers_prop;
+mod residual_loop;
 mod schema;
 mod streaming;

@@ -19,16 +19,23 @@
 //!
 //! Octave scales from one sample to a length that still leaves [`MIN_INCREMENTS`] increments are
 //! tried; the one with the smallest p-value is kept and that p-value is multiplied by the number
-//! of scales (Bonferroni). Short scales suffer from the white measurement noise of T
-//! (attenuation), long ones from few increments; the evidence picks the compromise, and the
-//! estimate and its interval come from the chosen scale. `delta_bic = ln(m) − χ²_eq` with m the
-//! number of increments at that scale (the effective sample count).
+//! of scales (Bonferroni). Differencing throws away the low frequencies where a warm-up lives,
+//! so long scales (a sizeable share of the warm-up) are needed for power; short ones suffer from
+//! the white measurement noise of T (attenuation). The evidence picks the compromise, and the
+//! estimate and its interval come from the chosen scale, with Student-t tails on
+//! m − 2 − (lags) degrees of freedom for the estimated Γ. `delta_bic = ln(m) − χ²_eq` with m the
+//! number of increments at that scale (the effective sample count), floored at
+//! [`N_EFF_FLOOR`].
 
 use super::stats::{delta_bic, mean_var, t_sf, t_two_sided};
 
 /// The fewest block-mean increments a scale may leave.
-pub const MIN_INCREMENTS: usize = 128;
-/// Autocovariance lags of the residual increments used in the standard error.
+pub const MIN_INCREMENTS: usize = 16;
+/// Floor of the effective sample count in the BIC penalty: with fewer increments than this, the
+/// penalty would fall below a 3 % two-sided test.
+pub const N_EFF_FLOOR: f64 = 100.0;
+/// Autocovariance lags of the residual increments used in the standard error (fewer when there
+/// are fewer than 8 increments per lag).
 const LAGS: usize = 3;
 
 /// A fitted linear coupling y = coefficient·aux + ….
@@ -46,8 +53,10 @@ pub struct Coupling {
     pub delta_bic: f64,
     /// Share of y's variance (about its mean) that coefficient·aux explains.
     pub explained_share: f64,
-    /// The block length used, s.
+    /// The block length used, s, …
     pub scale_s: f64,
+    /// … and in samples (the smoothing of aux in [`remove_coupling`]).
+    pub scale_samples: usize,
     /// Increments at that scale: the effective sample count.
     pub n_eff: usize,
 }
@@ -57,6 +66,7 @@ struct ScaleFit {
     se: f64,
     p: f64,
     m: usize,
+    nu: f64,
     s: usize,
 }
 
@@ -96,7 +106,7 @@ pub fn fit_coupling(y: &[f64], aux: &[f64], rate_hz: f64, p: f64) -> Option<Coup
     } else {
         0.0
     };
-    let half = t_two_sided(p, best.m as f64 - 2.0) * best.se;
+    let half = t_two_sided(p, best.nu) * best.se;
     let share = if vy > 0.0 {
         (best.beta * best.beta * vx / vy).min(1.0)
     } else {
@@ -108,9 +118,10 @@ pub fn fit_coupling(y: &[f64], aux: &[f64], rate_hz: f64, p: f64) -> Option<Coup
         hi: best.beta + half,
         z,
         p_value,
-        delta_bic: delta_bic(1.0, best.m as f64, p_value, z * z),
+        delta_bic: delta_bic(1.0, (best.m as f64).max(N_EFF_FLOOR), p_value, z * z),
         explained_share: share,
         scale_s: best.s as f64 / rate_hz,
+        scale_samples: best.s,
         n_eff: best.m,
     })
 }
@@ -119,12 +130,8 @@ pub fn fit_coupling(y: &[f64], aux: &[f64], rate_hz: f64, p: f64) -> Option<Coup
 fn fit_scale(sy: &[f64], sx: &[f64], s: usize) -> Option<ScaleFit> {
     let nb = (sy.len() - 1) / s;
     let mean = |p: &[f64], j: usize| (p[(j + 1) * s] - p[j * s]) / s as f64;
-    let dy: Vec<f64> = (0..nb - 1)
-        .map(|j| mean(sy, j + 1) - mean(sy, j))
-        .collect();
-    let dx: Vec<f64> = (0..nb - 1)
-        .map(|j| mean(sx, j + 1) - mean(sx, j))
-        .collect();
+    let dy: Vec<f64> = (0..nb - 1).map(|j| mean(sy, j + 1) - mean(sy, j)).collect();
+    let dx: Vec<f64> = (0..nb - 1).map(|j| mean(sx, j + 1) - mean(sx, j)).collect();
     let m = dy.len();
     let (ay, _) = mean_var(&dy);
     let (ax, _) = mean_var(&dx);
@@ -134,13 +141,10 @@ fn fit_scale(sy: &[f64], sx: &[f64], s: usize) -> Option<ScaleFit> {
         return None;
     }
     let beta = x.iter().zip(&dy).map(|(a, b)| a * (b - ay)).sum::<f64>() / sxx;
-    let e: Vec<f64> = x
-        .iter()
-        .zip(&dy)
-        .map(|(a, b)| b - ay - beta * a)
-        .collect();
+    let e: Vec<f64> = x.iter().zip(&dy).map(|(a, b)| b - ay - beta * a).collect();
     let lag_sum = |v: &[f64], h: usize| v.iter().zip(&v[h..]).map(|(a, b)| a * b).sum::<f64>();
-    let gamma: Vec<f64> = (0..=LAGS.min(m - 1))
+    let lags = LAGS.min(m / 8);
+    let gamma: Vec<f64> = (0..=lags)
         .map(|h| lag_sum(&e, h) / (m as f64 - 2.0))
         .collect();
     let rx: Vec<f64> = (0..gamma.len()).map(|h| lag_sum(&x, h)).collect();
@@ -150,7 +154,7 @@ fn fit_scale(sy: &[f64], sx: &[f64], s: usize) -> Option<ScaleFit> {
                 * (1..gamma.len())
                     .map(|h| {
                         let w = if taper {
-                            1.0 - h as f64 / (LAGS as f64 + 1.0)
+                            1.0 - h as f64 / (lags as f64 + 1.0)
                         } else {
                             1.0
                         };
@@ -163,21 +167,42 @@ fn fit_scale(sy: &[f64], sx: &[f64], s: usize) -> Option<ScaleFit> {
         q = quad(true).max(gamma[0] * rx[0] * 1e-3);
     }
     let se = (q.max(0.0)).sqrt() / sxx;
+    let nu = (m - 2 - lags) as f64;
     let p = if se > 0.0 {
-        2.0 * t_sf((beta / se).abs(), m as f64 - 2.0)
+        2.0 * t_sf((beta / se).abs(), nu)
     } else if beta == 0.0 {
         1.0
     } else {
         0.0
     };
-    Some(ScaleFit { beta, se, p, m, s })
+    Some(ScaleFit {
+        beta,
+        se,
+        p,
+        m,
+        nu,
+        s,
+    })
 }
 
-/// Subtracts coefficient·(aux − mean aux) from `y` (the mean of y is kept).
+/// Subtracts coefficient·(aux − mean aux) from `y` (the mean of y is kept), aux smoothed by a
+/// centred running mean over the scale the coefficient was measured at: subtracting the raw aux
+/// would inject its white measurement noise, perfectly correlated with aux, into y (a refit
+/// then finds a spurious negative coupling at the shortest scales).
 pub fn remove_coupling(y: &mut [f64], aux: &[f64], c: &Coupling) {
-    let (mx, _) = mean_var(aux);
-    for (v, t) in y.iter_mut().zip(aux) {
-        *v -= c.coefficient * (t - mx);
+    let n = y.len().min(aux.len());
+    let (mx, _) = mean_var(&aux[..n]);
+    let mut prefix = Vec::with_capacity(n + 1);
+    let mut acc = 0.0;
+    prefix.push(0.0);
+    for t in &aux[..n] {
+        acc += t - mx;
+        prefix.push(acc);
+    }
+    let half = c.scale_samples.max(1) / 2;
+    for (i, v) in y[..n].iter_mut().enumerate() {
+        let (a, b) = (i.saturating_sub(half), (i + half + 1).min(n));
+        *v -= c.coefficient * (prefix[b] - prefix[a]) / (b - a) as f64;
     }
 }
 
@@ -191,7 +216,12 @@ mod tests {
         let (my, _) = mean_var(y);
         let (mt, vt) = mean_var(t);
         let n = y.len() as f64;
-        let b = y.iter().zip(t).map(|(a, c)| (a - my) * (c - mt)).sum::<f64>() / (vt * n);
+        let b = y
+            .iter()
+            .zip(t)
+            .map(|(a, c)| (a - my) * (c - mt))
+            .sum::<f64>()
+            / (vt * n);
         let rss: f64 = y
             .iter()
             .zip(t)
@@ -200,12 +230,16 @@ mod tests {
         b / (rss / (n - 2.0) / (vt * n)).sqrt()
     }
 
-    fn coupled(seed: u64, coef: f64, n: usize) -> (Vec<f64>, Vec<f64>) {
-        let mut ch = channel(profile(seed));
+    /// A channel of profile `seed % 3` with coefficient `per_b`·B per °C (B the flicker
+    /// coefficient: the warm-up of 5 °C moves the rate by 5·`per_b`·B), and the temperature.
+    fn coupled(seed: u64, per_b: f64, n: usize) -> (Vec<f64>, Vec<f64>, f64) {
+        let c = profile(seed);
+        let coef = per_b * c.b;
+        let mut ch = channel(c);
         ch.temperature_coefficient = coef;
         let mut cols = run(ch, n, seed, Some(temperature()));
         let t = cols.pop().unwrap();
-        (cols.pop().unwrap(), t)
+        (cols.pop().unwrap(), t, coef)
     }
 
     #[test]
@@ -213,15 +247,12 @@ mod tests {
         let runs = 150;
         let (mut false_bic, mut naive) = (0, 0);
         for seed in 0..runs {
-            let (y, t) = coupled(seed, 0.0, 200_000);
+            let (y, t, _) = coupled(seed, 0.0, 200_000);
             let c = fit_coupling(&y, &t, FS, 0.6827).unwrap();
             false_bic += usize::from(c.delta_bic < 0.0);
             naive += usize::from(naive_t(&y, &t).abs() > 2.0);
         }
-        let (rate, naive_rate) = (
-            false_bic as f64 / runs as f64,
-            naive as f64 / runs as f64,
-        );
+        let (rate, naive_rate) = (false_bic as f64 / runs as f64, naive as f64 / runs as f64);
         println!("coupling: false discoveries {rate:.3}, naive OLS |t|>2: {naive_rate:.3}");
         assert!(rate <= 0.03, "{rate}");
         assert!(naive_rate > 0.5, "{naive_rate}");
@@ -229,10 +260,9 @@ mod tests {
 
     #[test]
     fn strong_coupling_is_recovered_and_removed() {
-        // 20 µrad/s/°C over a 5 °C warm-up: ≈ 10× the flicker floor.
-        let coef = 2e-5;
-        for seed in 0..3 {
-            let (mut y, t) = coupled(seed, coef, 200_000);
+        // A warm-up drift of 200 B (40 °/h/°C on a 1 °/h gyro: a MEMS-typical sensitivity).
+        for seed in 0..6 {
+            let (mut y, t, coef) = coupled(seed, 40.0, 200_000);
             let c = fit_coupling(&y, &t, FS, 0.95).unwrap();
             println!(
                 "coupling seed {seed}: {:.4e} [{:.4e}, {:.4e}] z {:.1} scale {} s ΔBIC {:.1} share {:.2}",
@@ -248,22 +278,25 @@ mod tests {
 
     #[test]
     fn interval_coverage() {
-        // Moderate coupling (z ≈ 5–15); 200 seeds: binomial σ of the coverage ≈ 3.3 %.
-        let coef = 5e-6;
+        // Moderate coupling (a drift of 50 B, z ≈ 10); 200 seeds: binomial σ of the coverage
+        // ≈ 3.3 %.
         let p = 0.6827;
         let runs = 200;
         let mut covered = 0;
         let mut rel = Vec::new();
+        let mut zs = Vec::new();
         for seed in 0..runs {
-            let (y, t) = coupled(1000 + seed, coef, 100_000);
+            let (y, t, coef) = coupled(1000 + seed, 10.0, 200_000);
             let c = fit_coupling(&y, &t, FS, p).unwrap();
             covered += usize::from(c.lo <= coef && coef <= c.hi);
             rel.push(c.coefficient / coef - 1.0);
+            zs.push(c.z);
         }
         let cov = covered as f64 / runs as f64;
         let (bias, var) = mean_var(&rel);
+        let (mz, _) = mean_var(&zs);
         println!(
-            "coupling coverage at p={p}: {cov:.3}; relative bias {bias:.4}, rms {:.4}",
+            "coupling coverage at p={p}: {cov:.3}; relative bias {bias:.4}, rms {:.4}, mean z {mz:.1}",
             var.sqrt()
         );
         assert!((cov - p).abs() < 0.09, "{cov}");

@@ -1,0 +1,237 @@
+//! Bias step: a jump in the mean that stays (a mode change, a mechanical shock).
+//!
+//! **The trap.** Random walk and flicker wander: a CUSUM or a two-sample t-test at the best split
+//! of the record finds a "highly significant" step in nearly every long record of IEEE noise,
+//! because it measures the wander against the white-noise scale.
+//!
+//! **The method: a dynamic Allan scan.** For a window of w samples,
+//! D_k(w) = mean(y[k..k+w]) − mean(y[k−w..k]) has variance 2σ²_A(wτ₀) at every k under *any*
+//! stationary-increment noise (that is the definition of the Allan variance), so
+//! z_k = D_k/√(2σ²_A) is a standard normal scan whatever the noise mix. σ²_A is estimated from all
+//! D_k of the record by a mean of D² trimmed of its top 2 % (a step inflates only the ≈ 2w/n of
+//! the D_k around it), with t-tails for the estimate's ≈ n/w degrees of freedom. A step Δ gives
+//! |z| ≈ Δ/√(2σ²_A(w)) at its position for every w, largest where σ_A is smallest; wander does
+//! not stand out at any w once scaled by σ_A(w).
+//!
+//! The maximum of |z| over k is judged by Pickands' formula for the excursions of a Gaussian
+//! scan whose correlation falls as 1 − 3|d|/(2w) (the white-noise case; random walk and flicker
+//! give a smoother scan with fewer excursions, so the white form is conservative):
+//! P(max|z| > u) ≈ 3·(n − 2w)/w · u·φ(u), capped by Bonferroni over all positions. Windows
+//! w = 8, 16, … up to n/[`MIN_WINDOWS`] are scanned, and the smallest p-value is multiplied by
+//! their number. `delta_bic = ln(n/w) − χ²_eq`: one amplitude parameter, the position being
+//! paid for by the scan correction, and n/w independent window means.
+
+use super::stats::{chi2_sf, delta_bic, norm_isf, norm_pdf, norm_sf, t_sf, t_two_sided};
+
+/// The record must hold at least this many windows of the longest length scanned.
+pub const MIN_WINDOWS: usize = 128;
+/// Shortest window, samples.
+const MIN_W: usize = 8;
+/// Share of the largest D² left out of the Allan-variance estimate.
+const TRIM: f64 = 0.02;
+
+/// A detected (or best candidate) bias step.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Step {
+    /// First sample after the step.
+    pub index: usize,
+    pub time_s: f64,
+    /// The jump (after − before), with its two-sided interval.
+    pub size: f64,
+    pub lo: f64,
+    pub hi: f64,
+    /// size / √(2σ²_A(w)).
+    pub z: f64,
+    /// Scan- and window-corrected p-value.
+    pub p_value: f64,
+    pub delta_bic: f64,
+    /// The window length w·τ₀ of the best evidence.
+    pub window_s: f64,
+}
+
+struct Scan {
+    k: usize,
+    w: usize,
+    d: f64,
+    sd: f64,
+    z: f64,
+    p: f64,
+    nu: f64,
+}
+
+/// The most significant step of `y`. `None` for a series too short to scan (n < 8·[`MIN_WINDOWS`])
+/// or without variation.
+pub fn find_step(y: &[f64], rate_hz: f64, p: f64) -> Option<Step> {
+    let n = y.len();
+    if n < MIN_W * MIN_WINDOWS || !(rate_hz > 0.0) {
+        return None;
+    }
+    let mean = y.iter().sum::<f64>() / n as f64;
+    let mut s = Vec::with_capacity(n + 1);
+    let mut acc = 0.0;
+    s.push(0.0);
+    for v in y {
+        acc += v - mean;
+        s.push(acc);
+    }
+    let mut scans = Vec::new();
+    let mut w = MIN_W;
+    while w * MIN_WINDOWS <= n {
+        if let Some(sc) = scan(&s, w) {
+            scans.push(sc);
+        }
+        w *= 2;
+    }
+    let count = scans.len() as f64;
+    let best = scans.into_iter().min_by(|a, b| a.p.total_cmp(&b.p))?;
+    let p_value = (best.p * count).min(1.0);
+    let half = t_two_sided(p, best.nu) * best.sd;
+    Some(Step {
+        index: best.k,
+        time_s: best.k as f64 / rate_hz,
+        size: best.d,
+        lo: best.d - half,
+        hi: best.d + half,
+        z: best.z,
+        p_value,
+        delta_bic: delta_bic(1.0, (n / best.w) as f64, p_value, best.z * best.z),
+        window_s: best.w as f64 / rate_hz,
+    })
+}
+
+/// Scan at window `w` over prefix sums `s` (S_0 = 0, length n + 1).
+fn scan(s: &[f64], w: usize) -> Option<Scan> {
+    let n = s.len() - 1;
+    let wf = w as f64;
+    let d: Vec<f64> = (w..=n - w)
+        .map(|k| (s[k + w] - 2.0 * s[k] + s[k - w]) / wf)
+        .collect();
+    let mut d2: Vec<f64> = d.iter().map(|v| v * v).collect();
+    let keep = ((1.0 - TRIM) * d2.len() as f64).floor() as usize;
+    if keep < 2 {
+        return None;
+    }
+    d2.select_nth_unstable_by(keep - 1, f64::total_cmp);
+    let trimmed = d2[..keep].iter().sum::<f64>() / keep as f64;
+    // E[χ²₁ | χ²₁ < c] = P(χ²₃ < c)/P(χ²₁ < c) with c the (1 − TRIM) quantile of χ²₁.
+    let c = norm_isf(TRIM / 2.0).powi(2);
+    let var = trimmed * (1.0 - TRIM) / (1.0 - chi2_sf(c, 3.0));
+    if !(var > 0.0) {
+        return None;
+    }
+    let sd = var.sqrt();
+    let (i, dk) = d
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
+    let z = dk / sd;
+    let nu = (n / w) as f64;
+    // Normal-equivalent level of the t-distributed maximum, then Pickands.
+    let tail = t_sf(z.abs(), nu);
+    let u = if tail < 1e-300 {
+        z.abs()
+    } else {
+        norm_isf(tail)
+    };
+    let len = (n - 2 * w) as f64;
+    let pickands = 3.0 * len / wf * u * norm_pdf(u);
+    let bonferroni = 2.0 * len * norm_sf(u);
+    Some(Scan {
+        k: i + w,
+        w,
+        d: *dk,
+        sd,
+        z,
+        p: pickands.min(bonferroni).min(1.0),
+        nu,
+    })
+}
+
+/// Subtracts the step from every sample from its index on.
+pub fn remove_step(y: &mut [f64], s: &Step) {
+    for v in y.iter_mut().skip(s.index) {
+        *v -= s.size;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::effects::time::testutil::*;
+    use crate::sim::StepSpec;
+
+    /// Naive: a two-sample t-test at the best split (white-noise scale from the first
+    /// differences), |t| > 4.
+    fn naive_step(y: &[f64]) -> bool {
+        let n = y.len();
+        let sigma2 = y.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * n as f64);
+        let total: f64 = y.iter().sum();
+        let mut left = 0.0;
+        (1..n).any(|k| {
+            left += y[k - 1];
+            let (a, b) = (k as f64, (n - k) as f64);
+            let d = (total - left) / b - left / a;
+            d.abs() / (sigma2 * (1.0 / a + 1.0 / b)).sqrt() > 4.0
+        })
+    }
+
+    #[test]
+    fn no_step_in_ieee_noise() {
+        let runs = 150;
+        let (mut hits, mut naive) = (0, 0);
+        let mut max_z: f64 = 0.0;
+        for seed in 0..runs {
+            let y = noise(200_000, seed);
+            let s = find_step(&y, FS, 0.68).unwrap();
+            hits += usize::from(s.delta_bic < 0.0);
+            naive += usize::from(naive_step(&y));
+            max_z = max_z.max(s.z.abs());
+        }
+        let rate = hits as f64 / runs as f64;
+        let naive_rate = naive as f64 / runs as f64;
+        println!("step: false discoveries {rate:.3} (largest |z| {max_z:.2}); naive split t-test {naive_rate:.3}");
+        assert!(rate <= 0.03, "{rate}");
+        assert!(naive_rate > 0.5, "{naive_rate}");
+    }
+
+    #[test]
+    fn planted_step_is_found() {
+        for seed in 0..6 {
+            let c = profile(seed);
+            // 20 B at 37 % of the record: z ≈ 9–12 at the longest window.
+            let size = 20.0 * c.b;
+            let mut ch = channel(c);
+            ch.steps = vec![StepSpec {
+                time_s: 740.0,
+                size,
+            }];
+            let mut y = run(ch, 200_000, seed, None).remove(0);
+            let s = find_step(&y, FS, 0.95).unwrap();
+            println!(
+                "step seed {seed}: t {:.1} s size {:.3e} [{:.3e}, {:.3e}] (true {size:.3e}) z {:.1} w {} s ΔBIC {:.1}",
+                s.time_s, s.size, s.lo, s.hi, s.z, s.window_s, s.delta_bic
+            );
+            assert!(s.delta_bic < 0.0);
+            assert!((s.time_s - 740.0).abs() < 20.0);
+            assert!(s.lo <= size && size <= s.hi);
+            remove_step(&mut y, &s);
+            assert!(find_step(&y, FS, 0.95).unwrap().delta_bic > 0.0);
+        }
+    }
+
+    #[test]
+    fn degenerate_inputs() {
+        assert!(find_step(&[], FS, 0.68).is_none());
+        assert!(find_step(&[1.0; 100], FS, 0.68).is_none());
+        assert!(find_step(&[1.0; 5000], FS, 0.68).is_none());
+        let q: Vec<f64> = (0..5000).map(|i| f64::from(i % 97 == 0)).collect();
+        assert!(find_step(&q, FS, 0.68).is_none_or(|s| s.delta_bic > 0.0));
+        let mut st: Vec<f64> = (0..5000).map(|i| ((i * 7919) % 13) as f64).collect();
+        for v in &mut st[3000..] {
+            *v += 10.0;
+        }
+        let s = find_step(&st, FS, 0.68).unwrap();
+        assert_eq!(s.index, 3000);
+        assert!(s.delta_bic < 0.0);
+    }
+}

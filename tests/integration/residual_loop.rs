@@ -1,0 +1,160 @@
+//! The residual loop on simulated recordings whose effects are not declared to it: each is found,
+//! named and fitted, and the error falls; pure IEEE-model data get nothing added.
+
+use imunoise::avar::{Confidence, TauGrid};
+use imunoise::effects::{close_loop, AuxSeries, Effect, LoopConfig, LoopOutcome};
+use imunoise::model::{CoefUnit, Coefficients, FitOptions, GaussMarkov};
+use imunoise::psd::WelchConfig;
+use imunoise::sim::{simulate, SimSpec};
+use serde_json::json;
+
+const FS: f64 = 100.0;
+
+fn config() -> LoopConfig {
+    LoopConfig {
+        welch: WelchConfig::new(4096),
+        bins_per_decade: 20,
+        taus: TauGrid::Octave,
+        confidence: Confidence::OneSigma,
+        fit: FitOptions::default(),
+    }
+}
+
+/// A gyro with N = 0.15 °/√h, B = 3 °/h, K = 20 °/h/√h plus `extra` (JSON fields of the channel
+/// spec), `seconds` long at 100 Hz; returns the gyro and, with a temperature, that channel.
+fn record(extra: serde_json::Value, temperature: bool, seconds: f64, seed: u64) -> Vec<Vec<f64>> {
+    let noise = Coefficients {
+        n: CoefUnit::DegPerSqrtH.to_si(0.15),
+        b: CoefUnit::DegPerH.to_si(3.0),
+        k: CoefUnit::DegPerHPerSqrtH.to_si(20.0),
+        ..Default::default()
+    };
+    let mut ch = json!({ "name": "g", "sensor": "gyro", "noise": noise });
+    for (k, v) in extra.as_object().unwrap() {
+        ch[k] = v.clone();
+    }
+    let mut spec = json!({ "rate_hz": FS, "duration_s": seconds, "seed": seed, "channels": [ch] });
+    if temperature {
+        spec["temperature"] = json!({ "start_degc": 20.0, "rise_degc": 4.0, "warmup_s": 600.0,
+            "wander": { "sigma": 0.3, "tc_s": 300.0 }, "noise_degc": 0.01 });
+    }
+    let spec: SimSpec = serde_json::from_value(spec).unwrap();
+    let (columns, _) = simulate(&spec).unwrap().into_columns();
+    columns
+}
+
+fn run(columns: &[Vec<f64>]) -> LoopOutcome {
+    let aux: Vec<AuxSeries<'_>> = columns[1..]
+        .iter()
+        .map(|s| AuxSeries {
+            name: "temperature",
+            samples: s,
+        })
+        .collect();
+    close_loop(&columns[0], FS, &aux, &config(), None).expect("loop ran")
+}
+
+fn kinds(o: &LoopOutcome) -> Vec<&'static str> {
+    o.report.steps.iter().map(|s| s.effect.kind()).collect()
+}
+
+/// The error figures fall with each step, in the domain where the effect lives.
+fn assert_error_falls(o: &LoopOutcome, spectrum: bool) {
+    for s in &o.report.steps {
+        let (b, a) = if spectrum {
+            (&s.before.spectrum, &s.after.spectrum)
+        } else {
+            (&s.before.allan, &s.after.allan)
+        };
+        let (b, a) = (b.as_ref().unwrap(), a.as_ref().unwrap());
+        assert!(
+            a.chi2_per_dof < b.chi2_per_dof,
+            "{} → {}",
+            b.chi2_per_dof,
+            a.chi2_per_dof
+        );
+    }
+}
+
+#[test]
+fn an_undeclared_line_is_found_fitted_and_removed() {
+    // 3e-4 rad/s at 7.3 Hz against white noise of 4.4e-4 rad/s per sample.
+    let cols = record(
+        json!({ "sinusoids": [{ "amplitude": 3e-4, "freq_hz": 7.3 }] }),
+        false,
+        1200.0,
+        1,
+    );
+    let o = run(&cols);
+    assert_eq!(kinds(&o), ["sinusoid"]);
+    let Effect::Sinusoid(s) = &o.report.steps[0].effect else {
+        unreachable!()
+    };
+    assert!(s.freq_lo <= 7.3 && 7.3 <= s.freq_hi, "{s:?}");
+    assert!((s.amplitude / 3e-4 - 1.0).abs() < 0.05, "{s:?}");
+    assert_error_falls(&o, true);
+}
+
+#[test]
+fn an_undeclared_gauss_markov_process_is_found() {
+    // σ = 2e-4 rad/s, Tc = 5 s: a hump over the white noise near τ ≈ 5 s.
+    let cols = record(
+        json!({ "gauss_markov": [GaussMarkov { sigma: 2e-4, tc_s: 5.0 }] }),
+        false,
+        1800.0,
+        2,
+    );
+    let o = run(&cols);
+    assert_eq!(kinds(&o), ["gauss_markov"], "{:?}", o.report.rejected);
+    let Effect::GaussMarkov { tc_s, sigma } = &o.report.steps[0].effect else {
+        unreachable!()
+    };
+    assert!(*tc_s > 2.5 && *tc_s < 10.0, "Tc = {tc_s}");
+    assert!((sigma.value / 2e-4 - 1.0).abs() < 0.3, "{sigma:?}");
+    assert_error_falls(&o, true);
+}
+
+#[test]
+fn an_undeclared_temperature_coupling_is_found_with_its_coefficient() {
+    let c = 2e-5; // rad/s per °C
+    let cols = record(json!({ "temperature_coefficient": c }), true, 3600.0, 3);
+    let o = run(&cols);
+    assert_eq!(kinds(&o), ["coupling"], "{:?}", o.report.rejected);
+    let Effect::Coupling { fit, .. } = &o.report.steps[0].effect else {
+        unreachable!()
+    };
+    assert!((fit.coefficient / c - 1.0).abs() < 0.2, "{fit:?}");
+    assert_error_falls(&o, false);
+}
+
+#[test]
+fn a_line_and_a_coupling_together_are_both_found() {
+    let cols = record(
+        json!({ "temperature_coefficient": 2e-5,
+                "sinusoids": [{ "amplitude": 3e-4, "freq_hz": 11.0 }] }),
+        true,
+        3600.0,
+        4,
+    );
+    let o = run(&cols);
+    let mut k = kinds(&o);
+    k.sort_unstable();
+    assert_eq!(k, ["coupling", "sinusoid"], "{:?}", o.report.rejected);
+}
+
+/// Negative control: the IEEE model alone (white, flicker, random walk) with an independent
+/// warming temperature channel; over 12 seeds at most one addition in all (measured: see the
+/// printed count).
+#[test]
+fn pure_ieee_noise_gets_nothing_added() {
+    let mut added = Vec::new();
+    for seed in 100..112 {
+        let cols = record(json!({}), true, 1200.0, seed);
+        let o = run(&cols);
+        if !o.report.steps.is_empty() {
+            added.push((seed, kinds(&o)));
+        }
+    }
+    println!("false additions: {added:?} in 12 records");
+    assert!(added.len() <= 1, "{added:?}");
+}
