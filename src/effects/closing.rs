@@ -11,10 +11,10 @@
 //! - stochastic effects ([`super::shapes`]): a first-order Gauss–Markov process (profiled over its
 //!   correlation time) and a resonance (at an excess too wide to be a line); they enter both fits
 //!   as one more column fitted with the base terms. Their ΔBIC is the sum over the two domains of
-//!   the change of the best candidate's score, with one more parameter per shape parameter, and
-//!   the spectrum's share must itself be negative (the spectrum is where such an effect shows
-//!   first, and its bands are close to independent). One stochastic effect at most: the fitting
-//!   engine has one effect column.
+//!   the change of the best candidate's score, with one more parameter per shape parameter; where
+//!   the spectrum fit's band can see the effect its share must itself be negative (its bands are
+//!   close to independent), where it cannot (a Gauss–Markov knee below its lowest band) only the
+//!   Allan domain votes. One stochastic effect at most: the fitting engine has one effect column.
 //!
 //! The loop stops when no candidate improves the criterion, or after [`MAX_STEPS`] additions.
 //! Every step records the error before and after (χ²/dof and RMS log residual in both domains).
@@ -228,11 +228,14 @@ struct Candidate {
     apply: Apply,
 }
 
+/// A correction of the series.
+type Correction = Box<dyn Fn(&mut Vec<f64>)>;
+
 enum Apply {
     /// Correct the series with this closure.
-    Series(Box<dyn Fn(&mut Vec<f64>)>),
+    Series(Correction),
     /// Put this stochastic effect in the model (with its already computed fits).
-    Model(Stochastic, Option<NoiseFit>, Option<NoiseFit>),
+    Model(Box<(Stochastic, Option<NoiseFit>, Option<NoiseFit>)>),
 }
 
 /// Runs the loop on one channel's samples `y` at `fs`. `initial`: the estimates of `y` already
@@ -268,7 +271,7 @@ pub fn close_loop(
         let candidates = propose(&state, fs, aux, cfg, p);
         rejected = candidates
             .iter()
-            .filter(|c| !(c.delta_bic < 0.0))
+            .filter(|c| c.delta_bic.is_nan() || c.delta_bic >= 0.0)
             .map(|c| Rejected {
                 kind: c.effect.kind(),
                 delta_bic: c.delta_bic,
@@ -295,7 +298,8 @@ pub fn close_loop(
                 (state.allan, state.spectrum) = (allan, spectrum);
                 state.changed = true;
             }
-            Apply::Model(stochastic, allan, spectrum) => {
+            Apply::Model(model) => {
+                let (stochastic, allan, spectrum) = *model;
                 state.stochastic = Some(stochastic);
                 (state.allan, state.spectrum) = (allan, spectrum);
             }
@@ -392,11 +396,11 @@ fn propose(
             let correct = move |y: &mut Vec<f64>| remove_coupling(y, &samples, &fit);
             // A smooth aux (a warm-up) leaves little in the increments the detector tests, while
             // the drift it drives dominates the Allan variance's long τ: then the model's own
-            // criterion decides, refitted on the corrected series, once the detector has at least
-            // nominal evidence (p < 0.05).
+            // criterion decides, refitted on the corrected series, once the detector has some
+            // evidence (p < 0.2).
             let mut delta = c.delta_bic;
             let mut how = "increments";
-            if !(delta < 0.0) && c.p_value < 0.05 {
+            if (delta.is_nan() || delta >= 0.0) && c.p_value < 0.2 {
                 if let Some(d) = refit_delta(state, fs, cfg, &correct) {
                     if d < delta {
                         (delta, how) = (d, "refit of both domains");
@@ -508,16 +512,17 @@ fn stochastic_delta(
 
 fn resonance_candidate(state: &State, e: &Excess, fs: f64, cfg: &LoopConfig) -> Option<Candidate> {
     let q0 = (e.freq_hz / e.width_hz.max(state.psd.bin_width_hz())).clamp(0.5, 1e4);
-    let mut best: Option<(f64, f64, Resonance, Option<NoiseFit>, Option<NoiseFit>)> = None;
+    type Profiled = (f64, f64, Resonance, Option<NoiseFit>);
+    let mut best: Option<Profiled> = None;
     for q in [q0 / 2.0, q0 / 1.4, q0, q0 * 1.4, q0 * 2.0] {
         let shape = Resonance::new(e.freq_hz, q, fs);
         let spectrum = fit_psd_with(&state.psd, &state.binned, &cfg.fit, Some(&shape)).ok();
         let s = spectrum.as_ref().map_or(f64::INFINITY, score);
         if best.as_ref().is_none_or(|b| s < b.0) {
-            best = Some((s, q, shape, None, spectrum));
+            best = Some((s, q, shape, spectrum));
         }
     }
-    let (_, q, shape, _, spectrum) = best?;
+    let (_, q, shape, spectrum) = best?;
     let allan = fit_avar_with(&state.dev, &cfg.fit, Some(&shape)).ok();
     let (ds, da) = stochastic_delta(state, allan.as_ref(), spectrum.as_ref(), 2.0)?;
     let sigma = spectrum.as_ref()?.effect?;
@@ -533,7 +538,7 @@ fn resonance_candidate(state: &State, e: &Excess, fs: f64, cfg: &LoopConfig) -> 
             q,
             sigma,
         },
-        apply: Apply::Model(Stochastic::Resonance(shape), allan, spectrum),
+        apply: Apply::Model(Box::new((Stochastic::Resonance(shape), allan, spectrum))),
     })
 }
 
@@ -559,6 +564,13 @@ fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig) -> Option<Ca
     let allan = fit_avar_with(&state.dev, &cfg.fit, Some(&shape)).ok();
     let (ds, da) = stochastic_delta(state, allan.as_ref(), spectrum.as_ref(), 1.0)?;
     let sigma = spectrum.as_ref()?.effect?;
+    // A knee below the spectrum fit's lowest band is invisible there: only the Allan fit votes.
+    let knee = 1.0 / (2.0 * std::f64::consts::PI * tc);
+    let visible = state
+        .spectrum
+        .as_ref()
+        .and_then(|f| f.points.first())
+        .is_some_and(|p| knee >= p.x);
     let where_ = state
         .spectrum
         .as_ref()
@@ -567,13 +579,18 @@ fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig) -> Option<Ca
         .map_or(String::new(), |l| {
             format!("; largest spectrum residual {:.3}–{:.3} Hz", l.x_lo, l.x_hi)
         });
+    let delta_bic = match (visible, ds < 0.0) {
+        (false, _) => da,
+        (true, true) => ds + da,
+        (true, false) => ds.max(0.0) + da.max(0.0),
+    };
     Some(Candidate {
-        delta_bic: if ds < 0.0 { ds + da } else { ds.max(0.0) + da.max(0.0) },
+        delta_bic,
         evidence: format!(
             "Lorentzian knee near {:.3} Hz (Tc = {tc:.3} s){where_}; ΔBIC spectrum {ds:.1}, Allan {da:.1}",
             1.0 / (2.0 * std::f64::consts::PI * tc)
         ),
         effect: Effect::GaussMarkov { tc_s: tc, sigma },
-        apply: Apply::Model(Stochastic::GaussMarkov(shape), allan, spectrum),
+        apply: Apply::Model(Box::new((Stochastic::GaussMarkov(shape), allan, spectrum))),
     })
 }

@@ -10,6 +10,13 @@ pub mod closing;
 pub mod lines;
 pub mod residuals;
 pub mod shapes;
+// The time-domain detectors guard their inputs with `!(x > 0.0)` on purpose: it rejects NaN along
+// with non-positive values in one comparison.
+#[allow(
+    clippy::neg_cmp_op_on_partial_ord,
+    clippy::nonminimal_bool,
+    clippy::manual_contains
+)]
 pub mod time;
 
 pub use closing::{

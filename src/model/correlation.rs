@@ -97,6 +97,7 @@ mod tests {
             (0.0, 1.87, 1.52),
             (0.0, 3.89, 1.55),
             (0.0, 3.89, 1.55),
+            (0.0, 1.46, 1.25),
         ];
         let Correlation::PerTerm(per_term) = Correlation::per_term(&pos, params) else {
             unreachable!()
@@ -104,7 +105,14 @@ mod tests {
         let share: Vec<[f64; TERMS]> = (0..12)
             .map(|i| {
                 let t = f64::from(i) / 11.0;
-                [0.1 * (1.0 - t), 0.8 * (1.0 - t), 0.1, 0.9 * t, 0.1 * t]
+                [
+                    0.1 * (1.0 - t),
+                    0.8 * (1.0 - t),
+                    0.1,
+                    0.9 * t,
+                    0.1 * t,
+                    0.05,
+                ]
             })
             .map(|s: [f64; TERMS]| {
                 let sum: f64 = s.iter().sum();

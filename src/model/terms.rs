@@ -290,6 +290,19 @@ impl Sinusoid {
     }
 }
 
+impl std::str::FromStr for Term {
+    type Err = String;
+
+    /// A term by its symbol (`Q`, `N`, `B`, `K`, `R`, any case).
+    fn from_str(s: &str) -> Result<Term, String> {
+        Term::ALL
+            .iter()
+            .copied()
+            .find(|t| t.symbol().eq_ignore_ascii_case(s.trim()))
+            .ok_or_else(|| format!("unknown term {s:?}: expected one of Q, N, B, K, R"))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -345,18 +358,5 @@ mod tests {
         let expected =
             3.0 / 4.0 + 4.0 / 2.0 + 9.0 * FLICKER_PLATEAU + 16.0 * 2.0 / 3.0 + 25.0 * 2.0;
         assert!((c.avar(2.0) - expected).abs() < 1e-12);
-    }
-}
-
-impl std::str::FromStr for Term {
-    type Err = String;
-
-    /// A term by its symbol (`Q`, `N`, `B`, `K`, `R`, any case).
-    fn from_str(s: &str) -> Result<Term, String> {
-        Term::ALL
-            .iter()
-            .copied()
-            .find(|t| t.symbol().eq_ignore_ascii_case(s.trim()))
-            .ok_or_else(|| format!("unknown term {s:?}: expected one of Q, N, B, K, R"))
     }
 }

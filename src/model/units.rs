@@ -298,8 +298,7 @@ impl CoefUnit {
     pub fn pretty(self) -> String {
         self.label()
             .replace("sqrt(", "√")
-            .replace(')', "")
-            .replace('(', "")
+            .replace([')', '('], "")
             .replace("deg", "°")
             .replace("ug", "µg")
             .replace("^2", "²")

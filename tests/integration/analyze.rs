@@ -25,11 +25,7 @@ fn estimate(fit: &Value, symbol: &str, unit: &str) -> Option<(f64, f64, f64)> {
         .iter()
         .find(|e| e["symbol"] == symbol)?;
     let u = e["units"].as_array()?.iter().find(|u| u["unit"] == unit)?;
-    Some((
-        u["value"].as_f64()?,
-        u["lo"].as_f64()?,
-        u["hi"].as_f64()?,
-    ))
+    Some((u["value"].as_f64()?, u["lo"].as_f64()?, u["hi"].as_f64()?))
 }
 
 fn kept(fit: &Value) -> Vec<String> {
@@ -51,16 +47,38 @@ fn simulate_then_analyze_recovers_the_coefficients_in_every_output() {
     let f = file.to_str().unwrap();
     run_ok(
         &[
-            "simulate", "-o", f, "--rate", "50", "--duration", "10800", "--seed", "11",
-            "--axes", "2", "--noise", "N=0.2deg/sqrt(h)", "--noise", "B=4 deg/h",
-            "--noise", "K=30deg/h/sqrt(h)", "--quiet",
+            "simulate",
+            "-o",
+            f,
+            "--rate",
+            "50",
+            "--duration",
+            "10800",
+            "--seed",
+            "11",
+            "--axes",
+            "2",
+            "--noise",
+            "N=0.2deg/sqrt(h)",
+            "--noise",
+            "B=4 deg/h",
+            "--noise",
+            "K=30deg/h/sqrt(h)",
+            "--quiet",
         ],
         dir.path(),
     );
     run_ok(
         &[
-            "analyze", f, "-o", out_dir.to_str().unwrap(), "--nperseg", "65536",
-            "--backend", "cpu", "--quiet",
+            "analyze",
+            f,
+            "-o",
+            out_dir.to_str().unwrap(),
+            "--nperseg",
+            "65536",
+            "--backend",
+            "cpu",
+            "--quiet",
         ],
         dir.path(),
     );
@@ -77,7 +95,10 @@ fn simulate_then_analyze_recovers_the_coefficients_in_every_output() {
             let (n, _, _) = estimate(fit, "N", "deg/sqrt(h)").expect("N kept");
             assert!((n / 0.2 - 1.0).abs() < 0.05, "{domain} N = {n}");
             let k = kept(fit);
-            assert!(!k.contains(&"Q".into()) && !k.contains(&"R".into()), "{domain}: {k:?}");
+            assert!(
+                !k.contains(&"Q".into()) && !k.contains(&"R".into()),
+                "{domain}: {k:?}"
+            );
         }
         // B and K from the Allan variance (the spectrum sees flicker only below ~1 mHz here).
         let (b, _, _) = estimate(&a["allan"], "B", "deg/h").expect("B kept");
@@ -100,7 +121,9 @@ fn simulate_then_analyze_recovers_the_coefficients_in_every_output() {
     let row = csv
         .lines()
         .map(|l| l.split(',').collect::<Vec<_>>())
-        .find(|r| r[col("channel")] == "gyro_x" && r[col("fit")] == "allan" && r[col("term")] == "N")
+        .find(|r| {
+            r[col("channel")] == "gyro_x" && r[col("fit")] == "allan" && r[col("term")] == "N"
+        })
         .unwrap();
     assert_eq!(row[col("unit")], "deg/sqrt(h)");
     assert_eq!(row[col("status")], "kept");
@@ -162,8 +185,14 @@ fn simulate_writes_what_info_reads_and_a_spec_file_drives_it() {
     let file = dir.path().join("rec.arrow");
     run_ok(
         &[
-            "simulate", "--spec", spec.to_str().unwrap(), "-o", file.to_str().unwrap(),
-            "--f32", "--seed", "6",
+            "simulate",
+            "--spec",
+            spec.to_str().unwrap(),
+            "-o",
+            file.to_str().unwrap(),
+            "--f32",
+            "--seed",
+            "6",
         ],
         dir.path(),
     );
@@ -185,12 +214,24 @@ fn simulate_writes_what_info_reads_and_a_spec_file_drives_it() {
     assert_eq!(
         channels,
         [
-            ("ax".into(), "accel".into(), "m/s^2".into(), "float32".into()),
-            ("gz".into(), "gyro".into(), "rad/s".into(), "float32".into()),
-            ("temperature".into(), "temperature".into(), "degC".into(), "float32".into()),
+            (
+                "ax".into(),
+                "accel".into(),
+                "m/s^2".into(),
+                "Float32".into()
+            ),
+            ("gz".into(), "gyro".into(), "rad/s".into(), "Float32".into()),
+            (
+                "temperature".into(),
+                "temperature".into(),
+                "degC".into(),
+                "Float32".into()
+            ),
         ]
     );
-    let mean = doc["files"][0]["quality"]["channels"][0]["mean"].as_f64().unwrap();
+    let mean = doc["files"][0]["quality"]["channels"][0]["mean"]
+        .as_f64()
+        .unwrap();
     assert!((mean - 0.1).abs() < 1e-3, "{mean}");
 }
 
@@ -200,12 +241,27 @@ fn simulate_refuses_bad_specifications_before_writing() {
     let file = dir.path().join("x.arrow");
     let f = file.to_str().unwrap();
     for (args, needle) in [
-        (vec!["--rate", "100", "--duration", "10", "--noise", "N=3deg/h"], "bias instability"),
-        (vec!["--rate", "100", "--duration", "10", "--noise", "N=-1"], ">= 0"),
-        (vec!["--rate", "100", "--duration", "10", "--noise", "X=1"], "unknown term"),
-        (vec!["--rate", "100", "--duration", "10", "--noise", "N=1furlong"], "furlong"),
+        (
+            vec!["--rate", "100", "--duration", "10", "--noise", "N=3deg/h"],
+            "bias instability",
+        ),
+        (
+            vec!["--rate", "100", "--duration", "10", "--noise", "N=-1"],
+            ">= 0",
+        ),
+        (
+            vec!["--rate", "100", "--duration", "10", "--noise", "X=1"],
+            "unknown term",
+        ),
+        (
+            vec!["--rate", "100", "--duration", "10", "--noise", "N=1furlong"],
+            "furlong",
+        ),
         (vec!["--duration", "10"], "--rate"),
-        (vec!["--rate", "100", "--duration", "10", "--sensor", "baro"], "gyro or accel"),
+        (
+            vec!["--rate", "100", "--duration", "10", "--sensor", "baro"],
+            "gyro or accel",
+        ),
         (vec!["--rate", "0", "--duration", "10"], "rate"),
     ] {
         let mut all = vec!["simulate", "-o", f];

@@ -21,11 +21,13 @@
 //! tried; the one with the smallest p-value is kept and that p-value is multiplied by the number
 //! of scales (Bonferroni). Differencing throws away the low frequencies where a warm-up lives,
 //! so long scales (a sizeable share of the warm-up) are needed for power; short ones suffer from
-//! the white measurement noise of T (attenuation). The evidence picks the compromise, and the
-//! estimate and its interval come from the chosen scale, with Student-t tails on
-//! m − 2 − (lags) degrees of freedom for the estimated Γ. `delta_bic = ln(m) − χ²_eq` with m the
-//! number of increments at that scale (the effective sample count), floored at
-//! [`N_EFF_FLOOR`].
+//! the white measurement noise of T (attenuation). The evidence (smallest p-value, Student-t
+//! tails on m − 2 − lags degrees of freedom for the estimated Γ) decides whether there is a
+//! coupling; `delta_bic = ln(m) − χ²_eq` with m the number of increments at that scale (the
+//! effective sample count), floored at [`N_EFF_FLOOR`]. The estimate and its interval come from
+//! the scale with the smallest standard error, which usually has fewer increments (so a larger
+//! p-value) but the most precise coefficient: after [`remove_coupling`] the remainder is then
+//! below one standard error at every scale, and a refit finds nothing.
 
 use super::stats::{delta_bic, mean_var, t_sf, t_two_sided};
 
@@ -46,18 +48,16 @@ pub struct Coupling {
     /// Two-sided interval at the requested probability.
     pub lo: f64,
     pub hi: f64,
-    /// Coefficient over its standard error at the chosen scale.
+    /// Coefficient over its standard error at the estimation scale.
     pub z: f64,
     /// Family-wise p-value (Bonferroni over the scales tried).
     pub p_value: f64,
     pub delta_bic: f64,
     /// Share of y's variance (about its mean) that coefficient·aux explains.
     pub explained_share: f64,
-    /// The block length used, s, …
+    /// The block length of the estimate, s.
     pub scale_s: f64,
-    /// … and in samples (the smoothing of aux in [`remove_coupling`]).
-    pub scale_samples: usize,
-    /// Increments at that scale: the effective sample count.
+    /// Increments at the scale of the best evidence: the effective sample count.
     pub n_eff: usize,
 }
 
@@ -99,30 +99,32 @@ pub fn fit_coupling(y: &[f64], aux: &[f64], rate_hz: f64, p: f64) -> Option<Coup
         s *= 2;
     }
     let scales = fits.len();
-    let best = fits.into_iter().min_by(|a, b| a.p.total_cmp(&b.p))?;
-    let p_value = (best.p * scales as f64).min(1.0);
-    let z = if best.se > 0.0 {
-        best.beta / best.se
-    } else {
-        0.0
-    };
-    let half = t_two_sided(p, best.nu) * best.se;
+    let det = fits.iter().min_by(|a, b| a.p.total_cmp(&b.p))?;
+    let p_value = (det.p * scales as f64).min(1.0);
+    let n_eff = det.m;
+    // The estimate from the most precise scale (see the module notes).
+    let est = fits
+        .iter()
+        .filter(|f| f.se > 0.0)
+        .min_by(|a, b| a.se.total_cmp(&b.se))
+        .unwrap_or(det);
+    let z = if est.se > 0.0 { est.beta / est.se } else { 0.0 };
+    let half = t_two_sided(p, est.nu) * est.se;
     let share = if vy > 0.0 {
-        (best.beta * best.beta * vx / vy).min(1.0)
+        (est.beta * est.beta * vx / vy).min(1.0)
     } else {
         0.0
     };
     Some(Coupling {
-        coefficient: best.beta,
-        lo: best.beta - half,
-        hi: best.beta + half,
+        coefficient: est.beta,
+        lo: est.beta - half,
+        hi: est.beta + half,
         z,
         p_value,
-        delta_bic: delta_bic(1.0, (best.m as f64).max(N_EFF_FLOOR), p_value, z * z),
+        delta_bic: delta_bic(1.0, (n_eff as f64).max(N_EFF_FLOOR), p_value, z * z),
         explained_share: share,
-        scale_s: best.s as f64 / rate_hz,
-        scale_samples: best.s,
-        n_eff: best.m,
+        scale_s: est.s as f64 / rate_hz,
+        n_eff,
     })
 }
 
@@ -186,9 +188,10 @@ fn fit_scale(sy: &[f64], sx: &[f64], s: usize) -> Option<ScaleFit> {
 }
 
 /// Subtracts coefficient·(aux − mean aux) from `y` (the mean of y is kept), aux smoothed by a
-/// centred running mean over the scale the coefficient was measured at: subtracting the raw aux
-/// would inject its white measurement noise, perfectly correlated with aux, into y (a refit
-/// then finds a spurious negative coupling at the shortest scales).
+/// centred running mean just long enough to suppress its white measurement noise (see
+/// [`smoothing_length`]): subtracting the raw aux would inject that noise, perfectly correlated
+/// with aux, into y, and a refit would find a spurious negative coupling at the shortest scales;
+/// smoothing over the whole fit scale would leave the fast part of the real drift in y.
 pub fn remove_coupling(y: &mut [f64], aux: &[f64], c: &Coupling) {
     let n = y.len().min(aux.len());
     let (mx, _) = mean_var(&aux[..n]);
@@ -199,11 +202,37 @@ pub fn remove_coupling(y: &mut [f64], aux: &[f64], c: &Coupling) {
         acc += t - mx;
         prefix.push(acc);
     }
-    let half = c.scale_samples.max(1) / 2;
+    let half = smoothing_length(&aux[..n]) / 2;
     for (i, v) in y[..n].iter_mut().enumerate() {
         let (a, b) = (i.saturating_sub(half), (i + half + 1).min(n));
         *v -= c.coefficient * (prefix[b] - prefix[a]) / (b - a) as f64;
     }
+}
+
+/// The shortest octave block length at which the block-mean increments of `aux` carry 20× the
+/// variance its white measurement noise alone would give them (2σ²_n/s, σ²_n from the lag-1
+/// differences), i.e. where the real signal dominates; 1 for a series without measurement noise
+/// worth the name.
+pub fn smoothing_length(aux: &[f64]) -> usize {
+    let n = aux.len();
+    if n < 16 {
+        return 1;
+    }
+    let noise = aux.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (n - 1) as f64);
+    let mut s = 1;
+    while n / (2 * s) >= 8 {
+        let nb = n / s;
+        let means: Vec<f64> = aux[..nb * s]
+            .chunks_exact(s)
+            .map(|c| c.iter().sum::<f64>() / s as f64)
+            .collect();
+        let v = means.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (nb - 1) as f64;
+        if v >= 40.0 * noise / s as f64 {
+            break;
+        }
+        s *= 2;
+    }
+    s
 }
 
 #[cfg(test)]

@@ -37,3 +37,44 @@ pub use sinusoid::{fit_sinusoid, remove_sinusoid, SineFit};
 pub use spikes::{find_spikes, remove_spikes, Spikes};
 pub use stationarity::{split_record, SplitRecord};
 pub use step::{find_step, remove_step, Step};
+
+#[cfg(test)]
+mod tests {
+    use super::testutil::*;
+    use super::*;
+
+    #[test]
+    fn runtime_on_a_million_samples() {
+        // Timings only (printed with --nocapture); every call must stay O(n) or O(n log n).
+        let n = 1_000_000;
+        let mut ch = channel(profile(0));
+        ch.temperature_coefficient = 1e-4;
+        let mut cols = run(ch, n, 9, Some(temperature()));
+        let t = cols.pop().unwrap();
+        let y = cols.pop().unwrap();
+        let time = |name: &str, f: &mut dyn FnMut()| {
+            let start = std::time::Instant::now();
+            f();
+            let ms = start.elapsed().as_secs_f64() * 1e3;
+            println!("runtime on 1e6 samples: {name} {ms:.0} ms");
+            ms
+        };
+        let mut total = 0.0;
+        total += time("fit_coupling", &mut || {
+            fit_coupling(&y, &t, FS, 0.68).unwrap();
+        });
+        total += time("find_spikes", &mut || {
+            find_spikes(&y, FS);
+        });
+        total += time("find_step", &mut || {
+            find_step(&y, FS, 0.68).unwrap();
+        });
+        total += time("fit_sinusoid", &mut || {
+            fit_sinusoid(&y, FS, 7.3, 1e-8, 0.68).unwrap();
+        });
+        total += time("split_record", &mut || {
+            split_record(&y, FS, 4, 0.68).unwrap();
+        });
+        assert!(total < 60_000.0);
+    }
+}
