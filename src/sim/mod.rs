@@ -303,6 +303,50 @@ mod tests {
     }
 
     #[test]
+    fn steps_and_spikes_are_added_and_recorded() {
+        let base = simulate(&spec()).unwrap();
+        let mut s = spec();
+        s.channels[1].steps = vec![StepSpec {
+            time_s: 10.01,
+            size: 0.5,
+        }];
+        s.channels[1].spikes = Some(SpikeSpec {
+            count: 3,
+            size: 2.0,
+            seed_offset: 0,
+        });
+        let sim = simulate(&s).unwrap();
+        assert_eq!(sim.channels[0].samples, base.channels[0].samples);
+        let truth = sim.channels[1].truth.clone().unwrap();
+        assert_eq!(truth.spike_indices.len(), 3);
+        assert_eq!(truth.steps.len(), 1);
+        let diff: Vec<f64> = sim.channels[1]
+            .samples
+            .iter()
+            .zip(&base.channels[1].samples)
+            .map(|(a, b)| a - b)
+            .collect();
+        for (i, d) in diff.iter().enumerate() {
+            let step = match i {
+                0..500 => 0.0,
+                500 => 0.25,
+                _ => 0.5,
+            };
+            // 50 Hz: the step at sample 500.5 gives sample 500 half of it.
+            let rest = d - step;
+            let spike = truth.spike_indices.contains(&i);
+            assert!(rest.abs() < 1e-12 || (spike && (rest.abs() - 2.0).abs() < 1e-12));
+        }
+        let mut bad = s.clone();
+        bad.channels[1].spikes = Some(SpikeSpec {
+            count: 5000,
+            size: 1.0,
+            seed_offset: 0,
+        });
+        assert!(simulate(&bad).is_err());
+    }
+
+    #[test]
     fn temperature_drift_follows_the_warm_up() {
         // Only drift: the channel is coefficient × (T − T₀) exactly.
         let mut s = spec();

@@ -4,7 +4,7 @@
 //! record is slow too (a warm-up, a wander). Ordinary least squares of y on T over the raw
 //! samples treats the n samples as independent, and two independent slow processes then look
 //! "significantly" correlated nearly every time (Granger & Newbold's spurious regression): on the
-//! simulated gyros of the tests, OLS calls ≈ 90 % of independent pairs significant.
+//! simulated gyros of the tests, OLS calls ≈ 85 % of independent pairs significant (|t| > 2).
 //!
 //! **The method.** Both series are averaged to blocks of s samples, and the *increments* of the
 //! block means are regressed (with an intercept) on each other: Δȳ_j = a + c·ΔT̄_j + e_j.
