@@ -103,10 +103,7 @@ pub fn analyze_channel(
             if let Some(f) = outcome.spectrum {
                 a.spectrum = Ok(f);
             }
-            a.comparison = match (&a.allan, &a.spectrum) {
-                (Ok(x), Ok(y)) => compare(x, y),
-                _ => Vec::new(),
-            };
+            a.comparison = comparison(&a.allan, &a.spectrum);
         }
         a.residual_loop = Some(outcome.report);
     }
@@ -131,10 +128,7 @@ pub fn fit_channel(
             "the spectrum fit needs the log-binned spectrum (bins per decade > 0)".into(),
         )),
     };
-    let comparison = match (&allan, &spectrum) {
-        (Ok(a), Ok(s)) => compare(a, s),
-        _ => Vec::new(),
-    };
+    let comparison = comparison(&allan, &spectrum);
     ChannelAnalysis {
         channel: psd.channel.clone(),
         sensor,
@@ -151,4 +145,15 @@ pub fn oadev(deviations: &ChannelDeviations) -> Option<&Deviations> {
         .statistics
         .iter()
         .find(|d| d.statistic == Statistic::Oadev)
+}
+
+/// The term-by-term comparison, when both fits succeeded.
+fn comparison(
+    allan: &Result<NoiseFit, FitError>,
+    spectrum: &Result<NoiseFit, FitError>,
+) -> Vec<TermComparison> {
+    match (allan, spectrum) {
+        (Ok(a), Ok(s)) => compare(a, s),
+        _ => Vec::new(),
+    }
 }

@@ -77,10 +77,7 @@ impl Resonance {
         f.retain(|&x| x > 0.0 && x <= nyquist);
         f.sort_by(f64::total_cmp);
         f.dedup();
-        let raw = |x: f64| {
-            let d = f0_hz * f0_hz - x * x;
-            f0_hz.powi(4) / (d * d + (x * f0_hz / q).powi(2))
-        };
+        let raw = |x: f64| Resonance::response(f0_hz, q, x);
         // Trapezoid weights.
         let grid: Vec<(f64, f64)> = (0..f.len())
             .map(|i| {
@@ -102,9 +99,10 @@ impl Resonance {
         }
     }
 
-    fn raw(&self, x: f64) -> f64 {
-        let d = self.f0_hz * self.f0_hz - x * x;
-        self.f0_hz.powi(4) / (d * d + (x * self.f0_hz / self.q).powi(2))
+    /// |H(f)|² of the second-order system, unnormalised.
+    fn response(f0_hz: f64, q: f64, x: f64) -> f64 {
+        let d = f0_hz * f0_hz - x * x;
+        f0_hz.powi(4) / (d * d + (x * f0_hz / q).powi(2))
     }
 }
 
@@ -121,7 +119,7 @@ impl EffectShape for Resonance {
                 .sum::<f64>()
     }
     fn psd_unit(&self, f_hz: f64, _rate_hz: f64) -> f64 {
-        self.norm * self.raw(f_hz)
+        self.norm * Resonance::response(self.f0_hz, self.q, f_hz)
     }
     fn alpha_at(&self, _tau_s: f64) -> i8 {
         0

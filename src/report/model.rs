@@ -52,13 +52,7 @@ fn decorate_fit(sensor: Sensor, fit: &mut Value) {
             continue;
         };
         for e in items {
-            let Some(term) = term_of(e) else { continue };
-            let keys: Vec<(&str, f64)> = ["value", "lo", "hi", "upper"]
-                .into_iter()
-                .filter_map(|k| Some((k, e.get(k)?.as_f64()?)))
-                .collect();
-            e["symbol"] = json!(term.symbol());
-            e["units"] = in_units(sensor, term, &keys);
+            decorate_estimate(sensor, e);
         }
     }
 }
@@ -78,7 +72,7 @@ pub fn analysis_json(a: &ChannelAnalysis) -> Value {
             }
             for domain in ["allan", "spectrum"] {
                 if row[domain].is_object() {
-                    decorate_fit_row(a.sensor, &mut row[domain]);
+                    decorate_estimate(a.sensor, &mut row[domain]);
                 }
             }
         }
@@ -86,9 +80,10 @@ pub fn analysis_json(a: &ChannelAnalysis) -> Value {
     v
 }
 
-fn decorate_fit_row(sensor: Sensor, e: &mut Value) {
+/// Adds `symbol` and `units` (every value in SI and the datasheet units) to an estimate or limit.
+fn decorate_estimate(sensor: Sensor, e: &mut Value) {
     if let Some(term) = term_of(e) {
-        let keys: Vec<(&str, f64)> = ["value", "lo", "hi"]
+        let keys: Vec<(&str, f64)> = ["value", "lo", "hi", "upper"]
             .into_iter()
             .filter_map(|k| Some((k, e.get(k)?.as_f64()?)))
             .collect();
@@ -106,7 +101,7 @@ pub fn fits(a: &ChannelAnalysis) -> [(&'static str, Option<&NoiseFit>); 2] {
 /// with their upper limit, in SI and in the datasheet unit.
 pub fn coefficients_table(results: &[&FileResult]) -> Table {
     let mut cols: [Vec<String>; 7] = Default::default();
-    let mut nums: [Vec<f64>; 8] = Default::default();
+    let mut nums: [Vec<f64>; 7] = Default::default();
     for r in results {
         for a in r.analysis.iter().flatten() {
             for (domain, fit) in fits(a) {
@@ -120,7 +115,7 @@ pub fn coefficients_table(results: &[&FileResult]) -> Table {
                     .iter()
                     .map(|u| (u.term, "upper_limit", f64::NAN, 0.0, u.upper));
                 for (term, status, value, lo, hi) in kept.chain(absent) {
-                    let [si, datasheet, _] = units_of(a.sensor, term);
+                    let [_, datasheet, _] = units_of(a.sensor, term);
                     let text = [
                         file_name(&r.recording),
                         a.channel.clone(),
@@ -141,7 +136,6 @@ pub fn coefficients_table(results: &[&FileResult]) -> Table {
                         datasheet.from_si(lo),
                         datasheet.from_si(hi),
                         fit.chi2_per_dof(),
-                        si.si_factor(),
                     ];
                     for (c, x) in nums.iter_mut().zip(row) {
                         c.push(x);
@@ -151,7 +145,7 @@ pub fn coefficients_table(results: &[&FileResult]) -> Table {
         }
     }
     let [file, channel, sensor, domain, term, status, unit] = cols;
-    let [value, lo, hi, value_d, lo_d, hi_d, chi2, _] = nums;
+    let [value, lo, hi, value_d, lo_d, hi_d, chi2] = nums;
     Table {
         columns: vec![
             ("file".into(), Column::Str(file)),
