@@ -3,11 +3,13 @@
 //!
 //! Each round every candidate of the catalogue is tried on the current state and the one with the
 //! lowest ΔBIC below zero is taken:
-//! - time-domain effects ([`super::time`]): spikes, a bias step, coupling to each aux channel
-//!   (temperature), and a sinusoid at each line the raw spectrum shows over the model
+//! - time-domain effects: spikes and a bias step ([`super::time`]), coupling to each aux channel
+//!   (temperature) and a drift shape (settling, curvature), both regressed under the fitted noise
+//!   model ([`super::slow`]), and a sinusoid at each line the raw spectrum shows over the model
 //!   ([`super::lines`]); they are removed from the series, and the spectrum and the Allan variance
 //!   are recomputed (on the CPU) and refitted. Their ΔBIC is the time-domain one the detectors
-//!   report (an honest effective sample count, search-corrected);
+//!   report (an honest effective sample count, search-corrected); a coupling or a drift is
+//!   proposed only when its family-wise p-value is below [`DETECTION_P`] as well;
 //! - stochastic effects ([`super::shapes`]): a first-order Gauss–Markov process (profiled over its
 //!   correlation time) and a resonance (at an excess too wide to be a line); they enter both fits
 //!   as one more column fitted with the base terms. Their ΔBIC is the sum over the two domains of
@@ -23,13 +25,14 @@ use serde::Serialize;
 
 use crate::avar::{compute, Confidence, Deviations, Statistic, TauGrid};
 use crate::model::{
-    fit_avar_with, fit_psd_with, EffectEstimate, EffectShape, FitOptions, NoiseFit,
+    fit_avar_with, fit_psd_with, EffectEstimate, EffectShape, FitOptions, NoiseFit, Term,
 };
 use crate::psd::{log_bin, welch, BinnedPsd, Psd, WelchConfig};
 
 use super::lines::{find_excess, Excess};
 use super::residuals::{diagnose, Diagnostics};
 use super::shapes::{GaussMarkov1, Resonance};
+use super::slow::{coupling_under_model, drift_under_model, remove_drift, Drift, DETECTION_P};
 use super::time::{
     find_spikes, find_step, fit_coupling, fit_sinusoid, remove_coupling, remove_sinusoid,
     remove_spikes, remove_step, split_record, Coupling, SineFit, Spikes, SplitRecord, Step,
@@ -75,6 +78,8 @@ pub enum Effect {
     GaussMarkov { tc_s: f64, sigma: EffectEstimate },
     /// Linear coupling to an aux channel, regressed out.
     Coupling { aux: String, fit: Coupling },
+    /// A bias drift the IEEE terms lack (a settling, a curvature), removed.
+    Drift(Drift),
     /// Spikes, replaced by the local level.
     Spikes(Spikes),
     /// A bias step, removed.
@@ -89,6 +94,7 @@ impl Effect {
             Effect::Resonance { .. } => "resonance",
             Effect::GaussMarkov { .. } => "gauss_markov",
             Effect::Coupling { .. } => "coupling",
+            Effect::Drift(_) => "drift",
             Effect::Spikes(_) => "spikes",
             Effect::Step(_) => "step",
         }
@@ -218,6 +224,32 @@ fn model_one_sided(fit: &NoiseFit, stochastic: Option<&Stochastic>, f: f64, fs: 
         _ => 0.0,
     };
     2.0 * (base + effect)
+}
+
+/// The noise density (one-sided) of a fit's model for the regressions of slow effects: without
+/// the rate ramp (a ramp's increments are a constant, which their intercept absorbs), and with
+/// the terms the criterion left out at their upper limits. A term too weak to be admitted is not
+/// absent, and slow noise missing from the covariance would make a slow regressor look
+/// significant: the regressions err on the side of too much noise.
+fn noise_density<'a>(
+    fit: &'a NoiseFit,
+    stochastic: Option<&'a Stochastic>,
+    fs: f64,
+) -> impl Fn(f64) -> f64 + 'a {
+    move |f| {
+        let kept = fit.estimates.iter().map(|e| (e.term, e.value));
+        let left_out = fit.upper_limits.iter().map(|u| (u.term, u.upper));
+        let base: f64 = kept
+            .chain(left_out)
+            .filter(|(term, v)| *term != Term::RateRamp && v.is_finite())
+            .map(|(term, v)| v * v * term.psd_sampled_unit(f, fs))
+            .sum();
+        let effect = match (stochastic, fit.effect) {
+            (Some(s), Some(e)) => e.value * e.value * s.shape().psd_unit(f, fs),
+            _ => 0.0,
+        };
+        2.0 * (base + effect)
+    }
 }
 
 /// A candidate for this round: its ΔBIC, what it would add, and the evidence.
@@ -387,44 +419,7 @@ fn propose(
             apply: Apply::Series(Box::new(move |y| remove_step(y, &s))),
         });
     }
-    for a in aux {
-        if a.samples.len() != y.len() {
-            continue;
-        }
-        if let Some(c) = fit_coupling(y, a.samples, fs, p) {
-            let (fit, samples) = (c.clone(), a.samples.to_vec());
-            let correct = move |y: &mut Vec<f64>| remove_coupling(y, &samples, &fit);
-            // A smooth aux (a warm-up) leaves little in the increments the detector tests, while
-            // the drift it drives dominates the Allan variance's long τ: then the model's own
-            // criterion decides, refitted on the corrected series, once the detector has some
-            // evidence (p < 0.2).
-            let mut delta = c.delta_bic;
-            let mut how = "increments";
-            if (delta.is_nan() || delta >= 0.0) && c.p_value < 0.2 {
-                if let Some(d) = refit_delta(state, fs, cfg, &correct) {
-                    if d < delta {
-                        (delta, how) = (d, "refit of both domains");
-                    }
-                }
-            }
-            out.push(Candidate {
-                delta_bic: delta,
-                evidence: format!(
-                    "time series: increments correlate with {} (z = {:.1} at {:.0} s blocks, p = {:.1e}, {:.1} % of the variance); ΔBIC from the {how}",
-                    a.name,
-                    c.z,
-                    c.scale_s,
-                    c.p_value,
-                    100.0 * c.explained_share
-                ),
-                effect: Effect::Coupling {
-                    aux: a.name.to_string(),
-                    fit: c,
-                },
-                apply: Apply::Series(Box::new(correct)),
-            });
-        }
-    }
+    out.extend(slow_candidates(state, fs, aux, cfg, p));
 
     let Some(spectrum) = &state.spectrum else {
         return out;
@@ -468,26 +463,113 @@ fn propose(
     out
 }
 
-/// ΔBIC of a time-domain correction judged by the model: the change of the best score of both
-/// fits after `correct`, plus the penalty of its one parameter.
-fn refit_delta(
+/// Raw p-value below which a slow effect's regression is repeated under the noise model refitted
+/// without it.
+const REFINE_P: f64 = 0.05;
+
+/// The Allan fit of the current series after `correct`: the noise model with a slow effect taken
+/// out.
+fn allan_without(
     state: &State,
     fs: f64,
     cfg: &LoopConfig,
     correct: &dyn Fn(&mut Vec<f64>),
-) -> Option<f64> {
+) -> Option<NoiseFit> {
     let mut y = state.y.clone();
     correct(&mut y);
-    let (dev, psd, binned) = estimates(&y, fs, cfg)?;
+    let dev = compute(&y, fs, &cfg.taus, Statistic::Oadev, cfg.confidence).ok()?;
     let shape = state.stochastic.as_ref().map(Stochastic::shape);
-    let (a1, s1) = fits(&dev, &psd, &binned, cfg, shape);
-    let (a0, s0) = (state.allan.as_ref()?, state.spectrum.as_ref()?);
-    let (a1, s1) = (a1?, s1?);
-    let da = score(&a1) + (a1.points.len() as f64).ln() - score(a0);
-    // One parameter (the coefficient), charged once, in the Allan domain: a slow drift is
-    // invisible to the spectrum fit, whose lowest bands start at 4·fs/nperseg.
-    let ds = score(&s1) - score(s0);
-    Some(da + ds)
+    fit_avar_with(&dev, &cfg.fit, shape).ok()
+}
+
+/// Coupling to each aux channel and a drift, regressed under the noise the Allan fit describes
+/// (it sees the long τ where slow effects live; the spectrum fit's band starts at
+/// 4·fs/nperseg). The base fit has absorbed part of a slow effect into its random walk and ramp,
+/// which inflates the covariance and hides the effect; so a regression with some evidence
+/// (p < [`REFINE_P`]) is repeated once under the Allan fit of the series with the first estimate
+/// removed (feasible GLS). Proposed only below the family-wise [`DETECTION_P`].
+fn slow_candidates(
+    state: &State,
+    fs: f64,
+    aux: &[AuxSeries<'_>],
+    cfg: &LoopConfig,
+    p: f64,
+) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    let y = &state.y;
+    let Some(model) = state.allan.as_ref().or(state.spectrum.as_ref()) else {
+        return out;
+    };
+    let stochastic = state.stochastic.as_ref();
+    let density = noise_density(model, stochastic, fs);
+    let usable: Vec<&AuxSeries<'_>> = aux.iter().filter(|a| a.samples.len() == y.len()).collect();
+    for a in &usable {
+        let family = usable.len();
+        let Some(mut c) = coupling_under_model(y, a.samples, fs, &density, family, p) else {
+            continue;
+        };
+        if c.p_value < REFINE_P * family as f64 {
+            let first = c.clone();
+            let refit = allan_without(state, fs, cfg, &|v: &mut Vec<f64>| {
+                remove_coupling(v, a.samples, &first)
+            });
+            if let Some(refit) = refit {
+                let density = noise_density(&refit, stochastic, fs);
+                if let Some(again) = coupling_under_model(y, a.samples, fs, &density, family, p) {
+                    c = again;
+                }
+            }
+        }
+        if c.p_value.is_nan() || c.p_value >= DETECTION_P {
+            continue;
+        }
+        // The model-free test on the same data, for the reader: it needs no noise model but
+        // weighs the increments equally, so it is weaker on a smooth aux.
+        let free = fit_coupling(y, a.samples, fs, p).map_or(String::new(), |f| {
+            format!("; model-free increments test p = {:.1e}", f.p_value)
+        });
+        let (fit, samples) = (c.clone(), a.samples.to_vec());
+        out.push(Candidate {
+            delta_bic: c.delta_bic,
+            evidence: format!(
+                "time series: regression on {} under the fitted noise model (t = {:.1} on {} increments of {:.1} s, p = {:.1e}){free}",
+                a.name, c.z, c.n_eff, c.scale_s, c.p_value
+            ),
+            effect: Effect::Coupling {
+                aux: a.name.to_string(),
+                fit: c,
+            },
+            apply: Apply::Series(Box::new(move |y: &mut Vec<f64>| {
+                remove_coupling(y, &samples, &fit)
+            })),
+        });
+    }
+    if let Some(mut d) = drift_under_model(y, fs, &density, p) {
+        if d.p_value < REFINE_P {
+            let first = d.clone();
+            let refit = allan_without(state, fs, cfg, &|v: &mut Vec<f64>| {
+                remove_drift(v, fs, &first)
+            });
+            if let Some(again) =
+                refit.and_then(|r| drift_under_model(y, fs, &noise_density(&r, stochastic, fs), p))
+            {
+                d = again;
+            }
+        }
+        if d.p_value < DETECTION_P {
+            let s = d.clone();
+            out.push(Candidate {
+                delta_bic: d.delta_bic,
+                evidence: format!(
+                    "time series: drift shape under the fitted noise model (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over 10 shapes)",
+                    d.z, d.increments, d.block_s, d.p_value
+                ),
+                effect: Effect::Drift(d),
+                apply: Apply::Series(Box::new(move |y| remove_drift(y, fs, &s))),
+            });
+        }
+    }
+    out
 }
 
 /// ΔBIC of a stochastic effect: the change of the best score in each domain plus `extra` shape

@@ -8,8 +8,10 @@
 //!   steps, sinusoid regression, split-record stationarity).
 pub mod closing;
 pub mod lines;
+pub mod regression;
 pub mod residuals;
 pub mod shapes;
+pub mod slow;
 // The time-domain detectors guard their inputs with `!(x > 0.0)` on purpose: it rejects NaN along
 // with non-positive values in one comparison.
 #[allow(

@@ -6,6 +6,7 @@
 use std::fmt::Write;
 
 use crate::analysis::ChannelAnalysis;
+use crate::effects::slow::DriftShape;
 use crate::effects::{Effect, ErrorFigures};
 use crate::model::{NoiseFit, Sensor, Term, TermEstimate};
 use crate::pipeline::FileResult;
@@ -276,6 +277,27 @@ pub fn effect_line(e: &Effect) -> String {
             sig4(fit.hi),
             100.0 * fit.explained_share
         ),
+        Effect::Drift(d) => {
+            let what = match (d.shape, d.tc_interval_s) {
+                (DriftShape::Exponential { tc_s }, Some((lo, hi))) => format!(
+                    "settling drift exp(−t/τ), τ {} s [{}, {}], amplitude",
+                    sig4(tc_s),
+                    sig4(lo),
+                    sig4(hi)
+                ),
+                (DriftShape::Exponential { tc_s }, None) => {
+                    format!("settling drift exp(−t/τ), τ {} s, amplitude", sig4(tc_s))
+                }
+                (DriftShape::Quadratic, _) => "quadratic drift (t − T/2)², per s²".to_string(),
+            };
+            format!(
+                "{what} {} [{}, {}], {:.1} % of the variance",
+                sig4(d.amplitude),
+                sig4(d.lo),
+                sig4(d.hi),
+                100.0 * d.explained_share
+            )
+        }
         Effect::Spikes(s) => format!(
             "{} spikes (first at {:.2} s), {:.2} % of the variance",
             s.indices.len(),

@@ -10,5 +10,6 @@ mod model;
 mod psd;
 mod readers_prop;
 mod residual_loop;
+mod residual_loop_catalogue;
 mod schema;
 mod streaming;

@@ -27,7 +27,7 @@ pub mod coupling;
 pub mod sinusoid;
 pub mod spikes;
 pub mod stationarity;
-mod stats;
+pub(crate) mod stats;
 pub mod step;
 #[cfg(test)]
 mod testutil;

@@ -48,6 +48,8 @@ pub fn channel(noise: Coefficients) -> ChannelSpec {
         temperature_coefficient: 0.0,
         steps: vec![],
         spikes: None,
+        resonances: vec![],
+        drift: None,
     }
 }
 
