@@ -36,6 +36,8 @@ fn spec(n: usize) -> SimSpec {
             temperature_coefficient: 0.0,
             steps: vec![],
             spikes: None,
+            resonances: vec![],
+            drift: None,
         }],
         temperature: None,
     }

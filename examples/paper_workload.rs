@@ -60,6 +60,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 temperature_coefficient: 0.0,
                 steps: vec![],
                 spikes: None,
+                resonances: vec![],
+                drift: None,
             })
             .collect(),
         temperature: None,

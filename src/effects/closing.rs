@@ -39,7 +39,7 @@ use super::time::{
 };
 
 /// Most effects added to one channel.
-pub const MAX_STEPS: usize = 6;
+pub const MAX_STEPS: usize = 8;
 /// Family-wise false-alarm probability of the raw-spectrum line search.
 const LINE_P: f64 = 1e-3;
 
@@ -260,6 +260,24 @@ struct Candidate {
     apply: Apply,
 }
 
+impl Candidate {
+    /// Why the candidate may not be added whatever its ΔBIC: a slow effect whose family-wise
+    /// p-value is not below [`DETECTION_P`].
+    fn barred(&self) -> Option<String> {
+        let p = match &self.effect {
+            Effect::Coupling { fit, .. } => fit.p_value,
+            Effect::Drift(d) => d.p_value,
+            _ => return None,
+        };
+        (p.is_nan() || p >= DETECTION_P)
+            .then(|| format!("not proposed: family-wise p = {p:.1e}, not below {DETECTION_P:.0e}"))
+    }
+
+    fn admissible(&self) -> bool {
+        self.delta_bic < 0.0 && self.barred().is_none()
+    }
+}
+
 /// A correction of the series.
 type Correction = Box<dyn Fn(&mut Vec<f64>)>;
 
@@ -303,16 +321,18 @@ pub fn close_loop(
         let candidates = propose(&state, fs, aux, cfg, p);
         rejected = candidates
             .iter()
-            .filter(|c| c.delta_bic.is_nan() || c.delta_bic >= 0.0)
+            .filter(|c| !c.admissible())
             .map(|c| Rejected {
                 kind: c.effect.kind(),
                 delta_bic: c.delta_bic,
-                note: c.evidence.clone(),
+                note: c
+                    .barred()
+                    .map_or(c.evidence.clone(), |b| format!("{}; {b}", c.evidence)),
             })
             .collect();
         let Some(best) = candidates
             .into_iter()
-            .filter(|c| c.delta_bic < 0.0)
+            .filter(Candidate::admissible)
             .min_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic))
         else {
             break;
@@ -487,7 +507,8 @@ fn allan_without(
 /// 4·fs/nperseg). The base fit has absorbed part of a slow effect into its random walk and ramp,
 /// which inflates the covariance and hides the effect; so a regression with some evidence
 /// (p < [`REFINE_P`]) is repeated once under the Allan fit of the series with the first estimate
-/// removed (feasible GLS). Proposed only below the family-wise [`DETECTION_P`].
+/// removed (feasible GLS). Added only below the family-wise [`DETECTION_P`]
+/// ([`Candidate::barred`]); above it they are listed as considered.
 fn slow_candidates(
     state: &State,
     fs: f64,
@@ -519,9 +540,6 @@ fn slow_candidates(
                     c = again;
                 }
             }
-        }
-        if c.p_value.is_nan() || c.p_value >= DETECTION_P {
-            continue;
         }
         // The model-free test on the same data, for the reader: it needs no noise model but
         // weighs the increments equally, so it is weaker on a smooth aux.
@@ -556,12 +574,12 @@ fn slow_candidates(
                 d = again;
             }
         }
-        if d.p_value < DETECTION_P {
+        {
             let s = d.clone();
             out.push(Candidate {
                 delta_bic: d.delta_bic,
                 evidence: format!(
-                    "time series: drift shape under the fitted noise model (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over 10 shapes)",
+                    "time series: drift shape under the fitted noise model (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over the shapes tried)",
                     d.z, d.increments, d.block_s, d.p_value
                 ),
                 effect: Effect::Drift(d),

@@ -4,11 +4,12 @@
 //!
 //! Both are one regression of the series on a known regressor: the aux channel itself, or a
 //! drift shape of the time. A straight ramp is not a drift candidate: the base model's rate ramp
-//! R describes it (and the regression's intercept absorbs it). The shapes are exp(−t/τ) at nine
-//! time constants from T/50 to T·4 (T the record length; beyond T it bends the rate like a
-//! parabola of that curvature sign) and the parabola (t − T/2)². Their p-values are
-//! multiplied by the ten shapes tried (Bonferroni), and an exponential pays two parameters in
-//! the ΔBIC, its amplitude and its time constant.
+//! R describes it (and the regression's intercept absorbs it). The shapes are exp(−t/τ) at
+//! octave-spaced time constants from two blocks of the regression to 4T (T the record length;
+//! beyond T it bends the rate like a parabola) and the parabola (t − T/2)². Their p-values are
+//! multiplied by the number of shapes tried (Bonferroni; 11 for 512 blocks), and an exponential
+//! pays two parameters in the ΔBIC, its amplitude and its time constant. A transient shorter
+//! than two blocks looks like a step to this search (and to the step detector).
 //!
 //! An effect is proposed only when its family-wise p-value is below [`DETECTION_P`]: the BIC
 //! penalty ln(M) of one parameter on M = 512 increments alone would admit ≈ 2 % of
@@ -22,8 +23,8 @@ use super::time::Coupling;
 
 /// Family-wise false-alarm probability of a slow effect (the same as the line search's).
 pub const DETECTION_P: f64 = 1e-3;
-/// Exponential time constants tried, in record lengths.
-const EXP_TC: [f64; 9] = [0.02, 0.04, 0.08, 0.15, 0.3, 0.6, 1.2, 2.4, 4.0];
+/// Longest exponential time constant tried, in record lengths.
+const EXP_TC_MAX: f64 = 4.0;
 
 /// The shape of a drift.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -164,29 +165,42 @@ pub fn drift_under_model(
         let gls = model.regress(&d, &x, 0.0)?;
         Some((shape, means, gls))
     };
-    let exponential = |k: f64| DriftShape::Exponential { tc_s: k * duration };
-    let coarse: Vec<_> = EXP_TC
+    let exponential = |tc_s: f64| DriftShape::Exponential { tc_s };
+    let mut grid = vec![2.0 * model.block as f64 / fs];
+    while grid[grid.len() - 1] * 2.0 <= EXP_TC_MAX * duration {
+        grid.push(grid[grid.len() - 1] * 2.0);
+    }
+    let coarse: Vec<_> = grid
         .iter()
         .map(|&k| exponential(k))
         .chain([DriftShape::Quadratic])
         .filter_map(fit)
         .collect();
-    let family = (EXP_TC.len() + 1) as f64;
-    let best = coarse
+    let family = (grid.len() + 1) as f64;
+    // The evidence: the smallest p-value of the search (corrected below by `family`).
+    let detection = coarse
         .iter()
-        .enumerate()
-        .min_by(|a, b| a.1 .2.p.total_cmp(&b.1 .2.p))?
-        .0;
-    let (mut shape, mut means, mut gls) = coarse[best].clone();
-    // The evidence is the coarse search's (the fine one only refines the estimate).
-    let detection = gls;
+        .map(|c| c.2)
+        .min_by(|a, b| a.p.total_cmp(&b.p))?;
+    // The shape: by BIC, an exponential paying one parameter more than the parabola (a slow
+    // exponential, τ beyond the record, bends like a parabola and would otherwise win by a
+    // hair with a meaningless amplitude).
+    let penalty = (model.m as f64).ln();
+    let bic = |g: &Gls, shape: DriftShape| {
+        let k = match shape {
+            DriftShape::Exponential { .. } => 2.0,
+            DriftShape::Quadratic => 1.0,
+        };
+        k * penalty - g.t * g.t
+    };
+    let (mut shape, mut means, mut gls) = coarse
+        .iter()
+        .min_by(|a, b| bic(&a.2, a.0).total_cmp(&bic(&b.2, b.0)))?
+        .clone();
     let mut tc_interval = None;
     let mut amplitude_interval = None;
-    if best < EXP_TC.len() {
-        let (lo, hi) = (
-            EXP_TC[best.saturating_sub(1)] / 1.5,
-            EXP_TC[(best + 1).min(EXP_TC.len() - 1)] * 1.5,
-        );
+    if let DriftShape::Exponential { tc_s } = shape {
+        let (lo, hi) = (tc_s / 3.0, tc_s * 3.0);
         let fine: Vec<_> = (0..=48)
             .map(|i| lo * (hi / lo).powf(i as f64 / 48.0))
             .filter_map(|k| fit(exponential(k)))

@@ -44,6 +44,8 @@
 //!         temperature_coefficient: 0.0,
 //!         steps: vec![],
 //!         spikes: None,
+//!         resonances: vec![],
+//!         drift: None,
 //!     }],
 //!     temperature: None,
 //! };

@@ -3,10 +3,12 @@
 use crate::model::{Coefficients, GaussMarkov, Sinusoid};
 
 use super::flicker::flicker;
-use super::processes::{add_gauss_markov, add_ramp, add_random_walk, add_sinusoid, add_white};
+use super::processes::{
+    add_drift, add_gauss_markov, add_ramp, add_random_walk, add_resonance, add_sinusoid, add_white,
+};
 use super::quantize::quantize;
 use super::rng::Rng;
-use super::spec::{ChannelSpec, StepSpec};
+use super::spec::{ChannelSpec, DriftSpec, ResonanceSpec, StepSpec};
 
 /// What a simulated channel truly contains, in the model's SI types: what a fit should find.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -23,6 +25,12 @@ pub struct ChannelTruth {
     /// Sample indices of the planted spikes, ascending (not in [`ChannelTruth::avar`]).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub spike_indices: Vec<usize>,
+    /// Planted resonances (not in [`ChannelTruth::avar`]).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub resonances: Vec<ResonanceSpec>,
+    /// Planted deterministic bias drift (not in [`ChannelTruth::avar`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift: Option<DriftSpec>,
 }
 
 impl ChannelTruth {
@@ -42,11 +50,14 @@ impl ChannelTruth {
             temperature_coefficient: spec.temperature_coefficient,
             steps: spec.steps.clone(),
             spike_indices: Vec::new(),
+            resonances: spec.resonances.clone(),
+            drift: spec.drift,
         }
     }
 
     /// The model Allan variance of everything random or deterministic in the channel except the
-    /// temperature drift (whose AV depends on the realised temperature).
+    /// temperature drift (whose AV depends on the realised temperature), the steps, spikes,
+    /// resonances and the deterministic drift.
     pub fn avar(&self, tau: f64) -> f64 {
         self.coefficients.avar(tau)
             + self.gauss_markov.iter().map(|g| g.avar(tau)).sum::<f64>()
@@ -64,6 +75,7 @@ enum Component {
     Quantisation,
     Spikes = 50,
     GaussMarkov = 100,
+    Resonance = 200,
 }
 
 fn rng_for(channel_seed: u64, component: Component, index: usize) -> Rng {
@@ -112,8 +124,15 @@ pub fn simulate_channel(
         let mut rng = rng_for(channel_seed, Component::GaussMarkov, i);
         add_gauss_markov(&mut y, rate_hz, gm, &mut rng);
     }
+    for (i, r) in spec.resonances.iter().enumerate() {
+        let mut rng = rng_for(channel_seed, Component::Resonance, i);
+        add_resonance(&mut y, rate_hz, r, &mut rng);
+    }
     for s in &spec.sinusoids {
         add_sinusoid(&mut y, rate_hz, s);
+    }
+    if let Some(d) = &spec.drift {
+        add_drift(&mut y, rate_hz, d);
     }
     if let Some(dt) = drift_temperature {
         if spec.temperature_coefficient != 0.0 {

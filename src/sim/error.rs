@@ -16,7 +16,7 @@ pub enum SimError {
         field: &'static str,
         value: f64,
     },
-    #[error("channel {channel:?}: sinusoid frequency {freq_hz} Hz is not below the Nyquist frequency {nyquist_hz} Hz")]
+    #[error("channel {channel:?}: sinusoid or resonance frequency {freq_hz} Hz is not below the Nyquist frequency {nyquist_hz} Hz")]
     AboveNyquist {
         channel: String,
         freq_hz: f64,

@@ -4,15 +4,17 @@
 //!
 //! A [`SimSpec`] (serde, SI units) lists channels; each is the sum of a bias, the IEEE terms (white
 //! N, flicker B with a true 1/f spectrum up to Nyquist, random walk K, deterministic ramp R),
-//! first-order Gauss–Markov processes, sinusoids and a drift proportional to a simulated
-//! temperature, then quantised as IEEE 952 describes (Q). [`simulate`] returns the channels with
+//! first-order Gauss–Markov processes, resonances (second-order Gauss–Markov), sinusoids, a drift
+//! proportional to a simulated temperature, a deterministic bias drift (settling, curvature) and
+//! bias steps, then quantised as IEEE 952 describes (Q), then spikes. [`simulate`] returns the channels with
 //! their unit, kind and the truth each holds.
 //!
 //! Each sample is the mean of the continuous-time rate over its sample interval, as an IMU that
 //! outputs delta angles or delta velocities delivers: the IEEE Allan variances then hold exactly
 //! from τ = τ₀ on, and the spectra are the IEEE ones through sinc² and folded at Nyquist
 //! ([`Term::psd_sampled_unit`](crate::model::Term::psd_sampled_unit)), which is what the fits
-//! in [`crate::model`] assume.
+//! in [`crate::model`] assume. The exception is a resonance, point-sampled as the residual loop's
+//! resonance shape assumes (its spectrum has no sinc²; see [`ResonanceSpec`]).
 //!
 //! Same seed, same samples, on any machine and whatever the thread count: each channel and each
 //! component has its own stream of a small generator of ours ([`rng`]), and the components are
@@ -35,6 +37,8 @@
 //!         temperature_coefficient: 0.0,
 //!         steps: vec![],
 //!         spikes: None,
+//!         resonances: vec![],
+//!         drift: None,
 //!     }],
 //!     temperature: None,
 //! };
@@ -62,7 +66,10 @@ use crate::units::{Kind, Unit};
 pub use channel::ChannelTruth;
 pub use error::SimError;
 pub use flicker::shaped_noise;
-pub use spec::{ChannelSpec, SimSpec, SinusoidSpec, SpikeSpec, StepSpec, TemperatureSpec};
+pub use spec::{
+    ChannelSpec, DriftSpec, ExponentialDrift, ResonanceSpec, SimSpec, SinusoidSpec, SpikeSpec,
+    StepSpec, TemperatureSpec,
+};
 
 /// A simulated recording.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -208,6 +215,8 @@ mod tests {
                     temperature_coefficient: 1e-4,
                     steps: vec![],
                     spikes: None,
+                    resonances: vec![],
+                    drift: None,
                 },
                 ChannelSpec {
                     name: "ax".into(),
@@ -222,6 +231,8 @@ mod tests {
                     temperature_coefficient: 0.0,
                     steps: vec![],
                     spikes: None,
+                    resonances: vec![],
+                    drift: None,
                 },
             ],
             temperature: Some(TemperatureSpec {
@@ -362,5 +373,163 @@ mod tests {
         assert!((y[1999] - 1e-4 * t_end).abs() < 1e-15);
         let temp = &sim.channels[1].samples;
         assert!((temp[1999] - 20.0 - t_end).abs() < 0.05);
+    }
+
+    fn only(ch: ChannelSpec, rate_hz: f64, duration_s: f64, seed: u64) -> Vec<f64> {
+        let s = SimSpec {
+            rate_hz,
+            duration_s,
+            seed,
+            channels: vec![ch],
+            temperature: None,
+        };
+        simulate(&s).unwrap().channels.remove(0).samples
+    }
+
+    fn bare() -> ChannelSpec {
+        ChannelSpec {
+            noise: Coefficients::default(),
+            gauss_markov: vec![],
+            sinusoids: vec![],
+            temperature_coefficient: 0.0,
+            bias: 0.0,
+            ..spec().channels[1].clone()
+        }
+    }
+
+    #[test]
+    fn resonance_has_its_sigma_and_peaks_at_f0() {
+        // f0 = 8 Hz, q = 20 at 100 Hz, 4000 s: the envelope decorrelates in q/(πf0) ≈ 0.8 s, so
+        // about 5000 independent blocks: the sample variance has σ ≈ 2 %, the std ≈ 1 %; bound 5 %.
+        let r = ResonanceSpec {
+            f0_hz: 8.0,
+            q: 20.0,
+            sigma: 0.3,
+        };
+        let ch = ChannelSpec {
+            resonances: vec![r],
+            ..bare()
+        };
+        let y = only(ch, 100.0, 4000.0, 5);
+        let n = y.len() as f64;
+        let mean = y.iter().sum::<f64>() / n;
+        let std = (y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+        assert!((std / r.sigma - 1.0).abs() < 0.05, "{std}");
+        // Welch (4096 samples, 0.024 Hz bins, ≈ 195 segments, EDF ≈ 350 per bin): the maximum
+        // within two bins of the spectral peak f0·√(1 − 1/(2q²)) = 7.990 Hz, and the density
+        // against the shape the loop fits, σ²·f0⁴/((f0² − f²)² + (f·f0/q)²)/(π·f0·q/2) one-sided,
+        // summed over the core |f − f0| < f0/2q = 0.2 Hz (17 bins) and over the flanks
+        // 0.2 Hz < |f − f0| < 0.8 Hz (50 bins), each within 10 % (≈ 2 % sampling error): the
+        // flanks against the core pin the width f0/q. Measured on this seed: peak bin 8.032 Hz,
+        // core 1.022, flanks 1.009 of the model; std 1.007 σ.
+        let psd = crate::psd::welch(&y, 100.0, &crate::psd::WelchConfig::new(4096)).unwrap();
+        let k = (0..psd.value.len())
+            .max_by(|&a, &b| psd.value[a].total_cmp(&psd.value[b]))
+            .unwrap();
+        let df = psd.freq_hz[1] - psd.freq_hz[0];
+        let f_peak = r.f0_hz * (1.0 - 1.0 / (2.0 * r.q * r.q)).sqrt();
+        assert!(
+            (psd.freq_hz[k] - f_peak).abs() <= 2.0 * df,
+            "{}",
+            psd.freq_hz[k]
+        );
+        let shape = |f: f64| {
+            let d = r.f0_hz * r.f0_hz - f * f;
+            let raw = r.f0_hz.powi(4) / (d * d + (f * r.f0_hz / r.q).powi(2));
+            r.sigma * r.sigma * raw / (std::f64::consts::PI * r.f0_hz * r.q / 2.0)
+        };
+        let half_width = r.f0_hz / (2.0 * r.q);
+        for (lo, hi) in [(0.0, half_width), (half_width, 4.0 * half_width)] {
+            let (mut got, mut want) = (0.0, 0.0);
+            for (f, v) in psd.freq_hz.iter().zip(&psd.value) {
+                let d = (f - r.f0_hz).abs();
+                if d >= lo && d < hi {
+                    (got, want) = (got + v, want + shape(*f));
+                }
+            }
+            assert!(
+                (got / want - 1.0).abs() < 0.1,
+                "{lo}–{hi} Hz: {got} vs {want}"
+            );
+        }
+        // Low damping and overdamped settings also hold their variance (q = 0.3 has no peak).
+        for q in [0.3, 0.5, 2.0] {
+            let ch = ChannelSpec {
+                resonances: vec![ResonanceSpec { q, ..r }],
+                ..bare()
+            };
+            let y = only(ch, 100.0, 2000.0, 6);
+            let n = y.len() as f64;
+            let v = y.iter().map(|v| v * v).sum::<f64>() / n;
+            assert!(
+                (v.sqrt() / r.sigma - 1.0).abs() < 0.05,
+                "q = {q}: {}",
+                v.sqrt()
+            );
+        }
+    }
+
+    #[test]
+    fn drift_is_added_exactly_and_leaves_the_noise_alone() {
+        let base = simulate(&spec()).unwrap();
+        let d = DriftSpec {
+            exponential: Some(ExponentialDrift {
+                amplitude: 0.2,
+                tc_s: 7.0,
+            }),
+            quadratic: 3e-4,
+        };
+        let mut s = spec();
+        s.channels[1].drift = Some(d);
+        s.channels[1].resonances = vec![];
+        let sim = simulate(&s).unwrap();
+        assert_eq!(sim.channels[0].samples, base.channels[0].samples);
+        assert_eq!(sim.channels[1].truth.as_ref().unwrap().drift, Some(d));
+        let (fs, n) = (50.0, 2000);
+        let half = n as f64 / fs / 2.0;
+        for (i, (a, b)) in sim.channels[1]
+            .samples
+            .iter()
+            .zip(&base.channels[1].samples)
+            .enumerate()
+        {
+            // The interval means, by a fine midpoint rule, and at the interval's centre the
+            // point value (the means differ from it by < 1e-4 relative here).
+            let t0 = i as f64 / fs;
+            let m = 200;
+            let mean = (0..m)
+                .map(|j| {
+                    let t = t0 + (j as f64 + 0.5) / (m as f64 * fs);
+                    0.2 * (-t / 7.0).exp() + 3e-4 * (t - half).powi(2)
+                })
+                .sum::<f64>()
+                / m as f64;
+            assert!((a - b - mean).abs() < 1e-9, "{i}: {} vs {mean}", a - b);
+            let tc = t0 + 0.5 / fs;
+            let point = 0.2 * (-tc / 7.0).exp() + 3e-4 * (tc - half).powi(2);
+            assert!((a - b - point).abs() < 1e-4 * point.abs().max(1e-3), "{i}");
+        }
+        // Old specifications (without the new fields) still parse.
+        let old: ChannelSpec =
+            serde_json::from_str(r#"{"name":"g","sensor":"gyro","noise":{"n":1e-3}}"#).unwrap();
+        assert!(old.resonances.is_empty() && old.drift.is_none());
+        let partial: DriftSpec = serde_json::from_str(r#"{"quadratic":1e-6}"#).unwrap();
+        assert_eq!(partial.exponential, None);
+        let mut bad = s.clone();
+        bad.channels[1].drift = Some(DriftSpec {
+            exponential: Some(ExponentialDrift {
+                amplitude: 1.0,
+                tc_s: 0.0,
+            }),
+            quadratic: 0.0,
+        });
+        assert!(simulate(&bad).is_err());
+        let mut bad = s;
+        bad.channels[1].resonances = vec![ResonanceSpec {
+            f0_hz: 30.0,
+            q: 5.0,
+            sigma: 1.0,
+        }];
+        assert!(matches!(simulate(&bad), Err(SimError::AboveNyquist { .. })));
     }
 }

@@ -11,7 +11,7 @@ use std::f64::consts::TAU;
 use crate::model::GaussMarkov;
 
 use super::rng::Rng;
-use super::spec::SinusoidSpec;
+use super::spec::{DriftSpec, ResonanceSpec, SinusoidSpec};
 
 /// White rate noise with two-sided PSD n² (AV n²/τ): interval means of white noise are white
 /// with σ = n·√fs.
@@ -69,6 +69,71 @@ pub fn add_gauss_markov(y: &mut [f64], rate_hz: f64, gm: &GaussMarkov, rng: &mut
         let integral = tc * one_minus_phi * x + b * g1 + c * g2;
         *v += integral / tau0;
         x = phi * x + a * g1;
+    }
+}
+
+/// A narrowband resonance (second-order Gauss–Markov process, see [`ResonanceSpec`]), point
+/// sampled at each sample's start, exactly: the state (x, x′/ω₀)/σ of
+/// x″ + (ω₀/q)x′ + ω₀²x = white noise has the identity as stationary covariance; one sample
+/// interval maps it by Φ = e^(AΔ) (poles r·e^(±iω), r = e^(−πf₀/(q·fs)),
+/// ω = 2πf₀√(1 − 1/(4q²))/fs) and adds Gaussian noise of covariance I − ΦΦᵀ, which keeps the
+/// stationary distribution the process starts from.
+pub fn add_resonance(y: &mut [f64], rate_hz: f64, r: &ResonanceSpec, rng: &mut Rng) {
+    let dt = 1.0 / rate_hz;
+    let w0 = TAU * r.f0_hz;
+    let alpha = w0 / (2.0 * r.q);
+    // e^(AΔ) = e^(−αΔ)·[C·I + S·(A + αI)], A = [[0, 1], [−ω₀², −2α]]: C and S from the damped
+    // (oscillating), critical or overdamped roots.
+    let disc = 1.0 / (4.0 * r.q * r.q) - 1.0;
+    let (c, s) = if disc < -1e-12 {
+        let wd = w0 * (-disc).sqrt();
+        ((wd * dt).cos(), (wd * dt).sin() / wd)
+    } else if disc > 1e-12 {
+        let g = w0 * disc.sqrt();
+        ((g * dt).cosh(), (g * dt).sinh() / g)
+    } else {
+        (1.0, dt)
+    };
+    let e = (-alpha * dt).exp();
+    // Φ in the scaled state (x/σ, x′/(ω₀σ)).
+    let p11 = e * (c + alpha * s);
+    let p12 = e * s * w0;
+    let p21 = -e * s * w0;
+    let p22 = e * (c - alpha * s);
+    // Innovation covariance I − ΦΦᵀ and its Cholesky factor [[a, 0], [b, d]].
+    let q11 = 1.0 - (p11 * p11 + p12 * p12);
+    let q12 = -(p11 * p21 + p12 * p22);
+    let q22 = 1.0 - (p21 * p21 + p22 * p22);
+    let a = q11.max(0.0).sqrt();
+    let b = if a > 0.0 { q12 / a } else { 0.0 };
+    let d = (q22 - b * b).max(0.0).sqrt();
+    let (mut u1, mut u2) = (rng.gauss(), rng.gauss());
+    for v in y {
+        *v += r.sigma * u1;
+        let (g1, g2) = (rng.gauss(), rng.gauss());
+        (u1, u2) = (
+            p11 * u1 + p12 * u2 + a * g1,
+            p21 * u1 + p22 * u2 + b * g1 + d * g2,
+        );
+    }
+}
+
+/// A deterministic drift over a record of `y.len()` samples (T = n/fs), each sample the exact
+/// mean over its interval [tᵢ, tᵢ + τ₀]: A·Tc·(e^(−tᵢ/Tc) − e^(−(tᵢ+τ₀)/Tc))/τ₀ for the settling
+/// A·e^(−t/Tc), and c·((tᵢ + τ₀/2 − T/2)² + τ₀²/12) for the curvature c·(t − T/2)².
+pub fn add_drift(y: &mut [f64], rate_hz: f64, d: &DriftSpec) {
+    let dt = 1.0 / rate_hz;
+    let half = y.len() as f64 * dt / 2.0;
+    for (i, v) in y.iter_mut().enumerate() {
+        let t = i as f64 * dt;
+        if let Some(ex) = &d.exponential {
+            // −Tc·e^(−t/Tc)·(e^(−τ₀/Tc) − 1)/τ₀, without cancellation for τ₀ ≪ Tc.
+            *v += ex.amplitude * (-t / ex.tc_s).exp() * (-(-dt / ex.tc_s).exp_m1()) * ex.tc_s / dt;
+        }
+        if d.quadratic != 0.0 {
+            let m = t + dt / 2.0 - half;
+            *v += d.quadratic * (m * m + dt * dt / 12.0);
+        }
     }
 }
 

@@ -33,7 +33,8 @@ pub struct SimSpec {
 }
 
 /// One inertial channel: the sum of a constant bias, the IEEE noise terms, Gauss–Markov processes,
-/// sinusoids and a temperature drift, then (if Q > 0) angle quantisation.
+/// resonances, sinusoids, a temperature drift, a deterministic bias drift and bias steps, then (if
+/// Q > 0) angle quantisation, then spikes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ChannelSpec {
@@ -60,6 +61,59 @@ pub struct ChannelSpec {
     /// Single-sample output glitches (what `effects::time::spikes` looks for).
     #[serde(default)]
     pub spikes: Option<SpikeSpec>,
+    /// Narrowband resonances (second-order Gauss–Markov processes; what `effects::shapes::Resonance`
+    /// models).
+    #[serde(default)]
+    pub resonances: Vec<ResonanceSpec>,
+    /// A deterministic bias drift (settling and curvature; neither is an IEEE term).
+    #[serde(default)]
+    pub drift: Option<DriftSpec>,
+}
+
+/// A narrowband resonance: white noise through a damped oscillator of natural frequency `f0_hz`
+/// and quality factor `q`, of standard deviation `sigma` (rad/s or m/s²).
+///
+/// The definitions are those of `effects::shapes::Resonance`, the shape the residual loop fits:
+/// the process is x″ + (ω₀/q)·x′ + ω₀²·x = white noise, ω₀ = 2πf₀, whose spectrum is
+/// ∝ f₀⁴/((f₀² − f²)² + (f·f₀/q)²) (half-power width ≈ f₀/q; the peak, at f₀√(1 − 1/(2q²)), is
+/// at f₀ but for O(1/q²)), and `sigma` is the standard deviation of the samples. The simulator
+/// samples this continuous process at the sample instants (point samples, not interval means as
+/// for the other components: the shape's spectrum has no sinc² either), exactly: a state-space
+/// AR(2) step with the poles r·e^(±iω), r = e^(−πf₀/(q·fs)), ω = 2πf₀√(1 − 1/(4q²))/fs, started
+/// from the stationary distribution. The samples' spectrum is the continuous one folded at
+/// Nyquist; the shape cuts it at Nyquist instead and renormalises, which differs by the share of
+/// the power above Nyquist f_N, ≈ 2f₀³/(3πq·f_N³) (4e-5 for f₀ = 8 Hz, q = 20 at 100 Hz).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResonanceSpec {
+    pub f0_hz: f64,
+    /// Quality factor, > 0 (≤ ½ is an overdamped, non-resonant second-order process).
+    pub q: f64,
+    /// Standard deviation of the process (rad/s or m/s²).
+    pub sigma: f64,
+}
+
+/// A deterministic bias drift over the record of length T (s): an exponential settling
+/// `amplitude`·e^(−t/`tc_s`) and a curvature `quadratic`·(t − T/2)², each sample being the mean over
+/// its interval (exactly, as for the other components).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriftSpec {
+    #[serde(default)]
+    pub exponential: Option<ExponentialDrift>,
+    /// Curvature of the bias, rad/s per s² (or m/s² per s²).
+    #[serde(default)]
+    pub quadratic: f64,
+}
+
+/// A bias settling `amplitude`·e^(−t/`tc_s`) from power-on (t = 0 at the first sample's start).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExponentialDrift {
+    /// Bias offset at t = 0 (rad/s or m/s²), decaying to zero.
+    pub amplitude: f64,
+    /// Time constant, s.
+    pub tc_s: f64,
 }
 
 /// A bias step: from `time_s` on the rate is higher by `size` (rad/s or m/s²). A step inside a
@@ -204,6 +258,31 @@ impl SimSpec {
                 finite("spikes.size", sp.size)?;
                 if sp.count > self.samples() {
                     return Err(bad("spikes.count", sp.count as f64));
+                }
+            }
+            for r in &ch.resonances {
+                non_negative("resonances.sigma", r.sigma)?;
+                if !(r.q.is_finite() && r.q > 0.0) {
+                    return Err(bad("resonances.q", r.q));
+                }
+                if !(r.f0_hz.is_finite() && r.f0_hz > 0.0) {
+                    return Err(bad("resonances.f0_hz", r.f0_hz));
+                }
+                if r.f0_hz >= nyquist_hz {
+                    return Err(SimError::AboveNyquist {
+                        channel: ch.name.clone(),
+                        freq_hz: r.f0_hz,
+                        nyquist_hz,
+                    });
+                }
+            }
+            if let Some(d) = &ch.drift {
+                finite("drift.quadratic", d.quadratic)?;
+                if let Some(e) = &d.exponential {
+                    finite("drift.exponential.amplitude", e.amplitude)?;
+                    if !(e.tc_s.is_finite() && e.tc_s > 0.0) {
+                        return Err(bad("drift.exponential.tc_s", e.tc_s));
+                    }
                 }
             }
             if ch.temperature_coefficient != 0.0 && self.temperature.is_none() {

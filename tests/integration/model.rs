@@ -29,6 +29,8 @@ fn record(c: Coefficients, fs: f64, n: usize, seed: u64) -> Vec<f64> {
             temperature_coefficient: 0.0,
             steps: vec![],
             spikes: None,
+            resonances: vec![],
+            drift: None,
         }],
         temperature: None,
     };

@@ -92,6 +92,7 @@ fn an_undeclared_line_is_found_fitted_and_removed() {
     };
     // Within a tenth of the spectrum's resolution 1/T (the interval itself is known to be
     // too narrow: see the closing note).
+    println!("line: {s:?}");
     assert!((s.freq_hz - 7.3).abs() < 0.1 / 1200.0, "{s:?}");
     assert!((s.amplitude / 3e-4 - 1.0).abs() < 0.05, "{s:?}");
     assert_error_falls(&o, true);
