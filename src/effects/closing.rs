@@ -34,6 +34,7 @@ use super::lines::{find_excess, Excess};
 use super::residuals::{diagnose, Diagnostics};
 use super::shapes::{GaussMarkov1, Resonance};
 use super::slow::{coupling_under_model, drift_under_model, remove_drift, Drift, DETECTION_P};
+use super::time::stats::norm_isf;
 use super::time::{
     find_spikes, find_step, fit_coupling, fit_sinusoid, remove_coupling, remove_sinusoid,
     remove_spikes, remove_step, split_record, Coupling, SineFit, Spikes, SplitRecord, Step,
@@ -482,7 +483,7 @@ fn propose(
         }
     }
     if stochastic.is_none() {
-        if let Some(c) = gauss_markov_candidate(state, fs, cfg) {
+        if let Some(c) = gauss_markov_candidate(state, fs, cfg, p) {
             out.push(c);
         }
     }
@@ -648,28 +649,38 @@ fn resonance_candidate(state: &State, e: &Excess, fs: f64, cfg: &LoopConfig) -> 
     })
 }
 
-fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig) -> Option<Candidate> {
+fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig, p: f64) -> Option<Candidate> {
     let duration = state.y.len() as f64 / fs;
     let (lo, hi) = (10.0 / fs, duration / 10.0);
     if hi <= lo {
         return None;
     }
-    let steps = ((hi / lo).log10() * 4.0).ceil() as usize;
-    let mut best: Option<(f64, f64, Option<NoiseFit>)> = None;
-    for k in 0..=steps {
-        let tc = lo * (hi / lo).powf(k as f64 / steps.max(1) as f64);
-        let shape = GaussMarkov1 { tc_s: tc };
-        let spectrum = fit_psd_with(&state.psd, &state.binned, &cfg.fit, Some(&shape)).ok();
-        let s = spectrum.as_ref().map_or(f64::INFINITY, score);
-        if best.as_ref().is_none_or(|b| s < b.0) {
-            best = Some((s, tc, spectrum));
-        }
-    }
-    let (_, tc, spectrum) = best?;
+    let steps = ((hi / lo).log10() * 8.0).ceil() as usize;
+    let profile: Vec<(f64, f64, Option<NoiseFit>)> = (0..=steps)
+        .map(|k| {
+            let tc = lo * (hi / lo).powf(k as f64 / steps.max(1) as f64);
+            let shape = GaussMarkov1 { tc_s: tc };
+            let spectrum = fit_psd_with(&state.psd, &state.binned, &cfg.fit, Some(&shape)).ok();
+            let s = spectrum.as_ref().map_or(f64::INFINITY, score);
+            (s, tc, spectrum)
+        })
+        .collect();
+    let (best_score, tc, spectrum) = profile.iter().min_by(|a, b| a.0.total_cmp(&b.0))?.clone();
     let shape = GaussMarkov1 { tc_s: tc };
     let allan = fit_avar_with(&state.dev, &cfg.fit, Some(&shape)).ok();
     let (ds, da) = stochastic_delta(state, allan.as_ref(), spectrum.as_ref(), 1.0)?;
-    let sigma = spectrum.as_ref()?.effect?;
+    // σ is tied to Tc (a longer correlation time puts the same low-frequency power in a larger
+    // σ): its interval is the union of the conditional ones over the Tc whose score lies within
+    // the χ²₁ quantile of the confidence of the best (the profile interval of Tc).
+    let mut sigma = spectrum.as_ref()?.effect?;
+    let q = norm_isf((1.0 - p) / 2.0).powi(2);
+    for e in profile
+        .iter()
+        .filter(|c| c.0 <= best_score + q)
+        .filter_map(|c| c.2.as_ref()?.effect)
+    {
+        (sigma.lo, sigma.hi) = (sigma.lo.min(e.lo), sigma.hi.max(e.hi));
+    }
     // A knee below the spectrum fit's lowest band is invisible there: only the Allan fit votes.
     let knee = 1.0 / (2.0 * std::f64::consts::PI * tc);
     let visible = state
