@@ -20,25 +20,17 @@ fn spec(n: usize) -> SimSpec {
         rate_hz: FS,
         duration_s: n as f64 / FS,
         seed: 1,
-        channels: vec![ChannelSpec {
-            name: "g".into(),
-            sensor: Sensor::Gyro,
-            bias: 0.0,
-            noise: Coefficients {
+        channels: vec![ChannelSpec::new(
+            "g",
+            Sensor::Gyro,
+            Coefficients {
                 q: 2e-5,
                 n: 1e-3,
                 b: 1e-4,
                 k: 1e-5,
                 r: 1e-8,
             },
-            gauss_markov: vec![],
-            sinusoids: vec![],
-            temperature_coefficient: 0.0,
-            steps: vec![],
-            spikes: None,
-            resonances: vec![],
-            drift: None,
-        }],
+        )],
         temperature: None,
     }
 }

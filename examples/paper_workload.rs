@@ -46,22 +46,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         duration_s: MINUTES * 60.0,
         seed,
         channels: (0..3)
-            .map(|i| ChannelSpec {
-                name: format!("gyro_{}", &AXES[i][..1]),
-                sensor: Sensor::Gyro,
-                bias: 0.0,
-                noise: Coefficients {
-                    n: arw_unit.to_si(ARW[i]),
-                    b: bi_unit.to_si(BI[i]),
-                    ..Default::default()
-                },
-                gauss_markov: vec![],
-                sinusoids: vec![],
-                temperature_coefficient: 0.0,
-                steps: vec![],
-                spikes: None,
-                resonances: vec![],
-                drift: None,
+            .map(|i| {
+                ChannelSpec::new(
+                    format!("gyro_{}", &AXES[i][..1]),
+                    Sensor::Gyro,
+                    Coefficients {
+                        n: arw_unit.to_si(ARW[i]),
+                        b: bi_unit.to_si(BI[i]),
+                        ..Default::default()
+                    },
+                )
             })
             .collect(),
         temperature: None,

@@ -219,18 +219,28 @@ fn score(fit: &NoiseFit) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// The spectrum fit's model as a one-sided density at f.
-fn model_one_sided(fit: &NoiseFit, stochastic: Option<&Stochastic>, f: f64, fs: f64) -> f64 {
-    let base: f64 = fit
-        .estimates
-        .iter()
-        .map(|e| e.value * e.value * e.term.psd_sampled_unit(f, fs))
+/// One-sided density at f of the coefficients `terms` plus the fit's stochastic effect.
+fn density_of(
+    terms: impl Iterator<Item = (Term, f64)>,
+    fit: &NoiseFit,
+    stochastic: Option<&Stochastic>,
+    f: f64,
+    fs: f64,
+) -> f64 {
+    let base: f64 = terms
+        .map(|(term, v)| v * v * term.psd_sampled_unit(f, fs))
         .sum();
     let effect = match (stochastic, fit.effect) {
         (Some(s), Some(e)) => e.value * e.value * s.shape().psd_unit(f, fs),
         _ => 0.0,
     };
     2.0 * (base + effect)
+}
+
+/// The spectrum fit's model as a one-sided density at f.
+fn model_one_sided(fit: &NoiseFit, stochastic: Option<&Stochastic>, f: f64, fs: f64) -> f64 {
+    let kept = fit.estimates.iter().map(|e| (e.term, e.value));
+    density_of(kept, fit, stochastic, f, fs)
 }
 
 /// The noise density (one-sided) of a fit's model for the regressions of slow effects: without
@@ -246,16 +256,10 @@ fn noise_density<'a>(
     move |f| {
         let kept = fit.estimates.iter().map(|e| (e.term, e.value));
         let left_out = fit.upper_limits.iter().map(|u| (u.term, u.upper));
-        let base: f64 = kept
+        let terms = kept
             .chain(left_out)
-            .filter(|(term, v)| *term != Term::RateRamp && v.is_finite())
-            .map(|(term, v)| v * v * term.psd_sampled_unit(f, fs))
-            .sum();
-        let effect = match (stochastic, fit.effect) {
-            (Some(s), Some(e)) => e.value * e.value * s.shape().psd_unit(f, fs),
-            _ => 0.0,
-        };
-        2.0 * (base + effect)
+            .filter(|(term, v)| *term != Term::RateRamp && v.is_finite());
+        density_of(terms, fit, stochastic, f, fs)
     }
 }
 
@@ -509,6 +513,24 @@ fn allan_without(
     fit_avar_with(&dev, &cfg.fit, shape).ok()
 }
 
+/// A noise density, one-sided, units²/Hz.
+type Density<'a> = &'a dyn Fn(f64) -> f64;
+
+/// Feasible GLS, one pass: `estimate` (a slow effect under a noise density) again under the
+/// Allan fit of the series with `first` removed by `remove`; `first` where that fails.
+fn refined<T>(
+    state: &State,
+    fs: f64,
+    cfg: &LoopConfig,
+    first: T,
+    estimate: &dyn Fn(Density<'_>) -> Option<T>,
+    remove: &dyn Fn(&mut Vec<f64>, &T),
+) -> T {
+    allan_without(state, fs, cfg, &|v: &mut Vec<f64>| remove(v, &first))
+        .and_then(|fit| estimate(&noise_density(&fit, state.stochastic.as_ref(), fs)))
+        .unwrap_or(first)
+}
+
 /// Coupling to each aux channel and a drift, regressed under the noise the Allan fit describes
 /// (it sees the long τ where slow effects live; the spectrum fit's band starts at
 /// 4·fs/nperseg). The base fit has absorbed part of a slow effect into its random walk and ramp,
@@ -533,21 +555,19 @@ fn slow_candidates(
     let usable: Vec<&AuxSeries<'_>> = aux.iter().filter(|a| a.samples.len() == y.len()).collect();
     for a in &usable {
         let family = usable.len();
-        let Some(mut c) = coupling_under_model(y, a.samples, fs, &density, family, p) else {
+        let estimate = |density: &dyn Fn(f64) -> f64| {
+            coupling_under_model(y, a.samples, fs, density, family, p)
+        };
+        let Some(first) = estimate(&density) else {
             continue;
         };
-        if c.p_value < REFINE_P * family as f64 {
-            let first = c.clone();
-            let refit = allan_without(state, fs, cfg, &|v: &mut Vec<f64>| {
-                remove_coupling(v, a.samples, &first)
-            });
-            if let Some(refit) = refit {
-                let density = noise_density(&refit, stochastic, fs);
-                if let Some(again) = coupling_under_model(y, a.samples, fs, &density, family, p) {
-                    c = again;
-                }
-            }
-        }
+        let c = if first.p_value < REFINE_P * family as f64 {
+            refined(state, fs, cfg, first, &estimate, &|v, c| {
+                remove_coupling(v, a.samples, c)
+            })
+        } else {
+            first
+        };
         // The model-free test on the same data, for the reader: it needs no noise model but
         // weighs the increments equally, so it is weaker on a smooth aux.
         let free = fit_coupling(y, a.samples, fs, p).map_or(String::new(), |f| {
@@ -569,30 +589,25 @@ fn slow_candidates(
             })),
         });
     }
-    if let Some(mut d) = drift_under_model(y, fs, &density, p) {
-        if d.p_value < REFINE_P {
-            let first = d.clone();
-            let refit = allan_without(state, fs, cfg, &|v: &mut Vec<f64>| {
-                remove_drift(v, fs, &first)
-            });
-            if let Some(again) =
-                refit.and_then(|r| drift_under_model(y, fs, &noise_density(&r, stochastic, fs), p))
-            {
-                d = again;
-            }
-        }
-        {
-            let s = d.clone();
-            out.push(Candidate {
-                delta_bic: d.delta_bic,
-                evidence: format!(
-                    "time series: drift shape under the fitted noise model (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over the shapes tried)",
-                    d.z, d.increments, d.block_s, d.p_value
-                ),
-                effect: Effect::Drift(d),
-                apply: Apply::Series(Box::new(move |y| remove_drift(y, fs, &s))),
-            });
-        }
+    let estimate = |density: &dyn Fn(f64) -> f64| drift_under_model(y, fs, density, p);
+    if let Some(first) = estimate(&density) {
+        let d = if first.p_value < REFINE_P {
+            refined(state, fs, cfg, first, &estimate, &|v, d| {
+                remove_drift(v, fs, d)
+            })
+        } else {
+            first
+        };
+        let s = d.clone();
+        out.push(Candidate {
+            delta_bic: d.delta_bic,
+            evidence: format!(
+                "time series: drift shape under the fitted noise model (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over the shapes tried)",
+                d.z, d.increments, d.block_s, d.p_value
+            ),
+            effect: Effect::Drift(d),
+            apply: Apply::Series(Box::new(move |y| remove_drift(y, fs, &s))),
+        });
     }
     out
 }

@@ -100,6 +100,8 @@ pub struct IncrementModel {
     pub m: usize,
     /// Lower Cholesky factor of the increments' covariance, row-major m×m.
     chol: Vec<f64>,
+    /// The whitened intercept column, L⁻¹1.
+    ones: Vec<f64>,
 }
 
 /// A regression of the increments on one regressor.
@@ -142,7 +144,14 @@ impl IncrementModel {
         let block = n / (m + 1);
         let gamma = increment_autocovariance(density, fs, block, m);
         let chol = cholesky_toeplitz(&gamma)?;
-        Some(Self { block, m, chol })
+        let mut model = Self {
+            block,
+            m,
+            chol,
+            ones: Vec::new(),
+        };
+        model.ones = model.whiten(&vec![1.0; m]);
+        Some(model)
     }
 
     /// The block-mean increments of `v` (its first (m + 1)·block samples).
@@ -175,10 +184,10 @@ impl IncrementModel {
         if d.len() != m || x.len() != m {
             return None;
         }
-        let (u, w, o) = (self.whiten(d), self.whiten(x), self.whiten(&vec![1.0; m]));
+        let (u, w, o) = (self.whiten(d), self.whiten(x), &self.ones);
         let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(p, q)| p * q).sum::<f64>();
-        let (soo, sow, sww) = (dot(&o, &o), dot(&o, &w), dot(&w, &w));
-        let (sou, swu) = (dot(&o, &u), dot(&w, &u));
+        let (soo, sow, sww) = (dot(o, o), dot(o, &w), dot(&w, &w));
+        let (sou, swu) = (dot(o, &u), dot(&w, &u));
         let det = soo * sww - sow * sow;
         if !det.is_finite() || det <= 1e-12 * soo * sww {
             return None;
@@ -199,7 +208,7 @@ impl IncrementModel {
         };
         let reliability = if x_noise > 0.0 {
             let centred = det / soo;
-            (1.0 - x_noise / self.block as f64 * self.noise_trace(&o, soo) / centred)
+            (1.0 - x_noise / self.block as f64 * self.noise_trace(o, soo) / centred)
                 .max(MIN_RELIABILITY)
         } else {
             1.0

@@ -18,7 +18,7 @@
 use serde::Serialize;
 
 use super::regression::{regress_series, white_noise_variance, Gls, IncrementModel, Regression};
-use super::time::stats::{delta_bic, norm_isf, t_two_sided};
+use super::time::stats::{delta_bic, mean_var, norm_isf, t_two_sided};
 use super::time::Coupling;
 
 /// Family-wise false-alarm probability of a slow effect (the same as the line search's).
@@ -70,9 +70,7 @@ pub struct Drift {
 }
 
 fn variance(v: &[f64]) -> f64 {
-    let n = v.len().max(1) as f64;
-    let m = v.iter().sum::<f64>() / n;
-    v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n
+    mean_var(v).1
 }
 
 /// The coupling of `y` to `aux` under the noise `density` (one-sided, without the ramp);

@@ -34,19 +34,11 @@
 //!     rate_hz: 100.0,
 //!     duration_s: 2000.0,
 //!     seed: 3,
-//!     channels: vec![ChannelSpec {
-//!         name: "gz".into(),
-//!         sensor: Sensor::Gyro,
-//!         bias: 0.0,
-//!         noise: Coefficients { n, ..Default::default() },
-//!         gauss_markov: vec![],
-//!         sinusoids: vec![],
-//!         temperature_coefficient: 0.0,
-//!         steps: vec![],
-//!         spikes: None,
-//!         resonances: vec![],
-//!         drift: None,
-//!     }],
+//!     channels: vec![ChannelSpec::new(
+//!         "gz",
+//!         Sensor::Gyro,
+//!         Coefficients { n, ..Default::default() },
+//!     )],
 //!     temperature: None,
 //! };
 //! let y = &simulate(&spec)?.channels[0].samples;

@@ -27,19 +27,11 @@
 //!     rate_hz: 100.0,
 //!     duration_s: 20.0,
 //!     seed: 1,
-//!     channels: vec![ChannelSpec {
-//!         name: "gx".into(),
-//!         sensor: Sensor::Gyro,
-//!         bias: 0.0,
-//!         noise: Coefficients { n: 1e-3, k: 1e-5, ..Default::default() },
-//!         gauss_markov: vec![],
-//!         sinusoids: vec![],
-//!         temperature_coefficient: 0.0,
-//!         steps: vec![],
-//!         spikes: None,
-//!         resonances: vec![],
-//!         drift: None,
-//!     }],
+//!     channels: vec![ChannelSpec::new(
+//!         "gx",
+//!         Sensor::Gyro,
+//!         Coefficients { n: 1e-3, k: 1e-5, ..Default::default() },
+//!     )],
 //!     temperature: None,
 //! };
 //! let sim = simulate(&spec)?;
@@ -218,22 +210,14 @@ mod tests {
                     resonances: vec![],
                     drift: None,
                 },
-                ChannelSpec {
-                    name: "ax".into(),
-                    sensor: Sensor::Accel,
-                    bias: 0.0,
-                    noise: Coefficients {
+                ChannelSpec::new(
+                    "ax",
+                    Sensor::Accel,
+                    Coefficients {
                         n: 1e-3,
                         ..Default::default()
                     },
-                    gauss_markov: vec![],
-                    sinusoids: vec![],
-                    temperature_coefficient: 0.0,
-                    steps: vec![],
-                    spikes: None,
-                    resonances: vec![],
-                    drift: None,
-                },
+                ),
             ],
             temperature: Some(TemperatureSpec {
                 name: "temp".into(),

@@ -70,6 +70,25 @@ pub struct ChannelSpec {
     pub drift: Option<DriftSpec>,
 }
 
+impl ChannelSpec {
+    /// A channel of `sensor` with the IEEE `noise` (SI) and nothing else: no bias, no effects.
+    pub fn new(name: impl Into<String>, sensor: Sensor, noise: Coefficients) -> Self {
+        Self {
+            name: name.into(),
+            sensor,
+            bias: 0.0,
+            noise,
+            gauss_markov: vec![],
+            sinusoids: vec![],
+            temperature_coefficient: 0.0,
+            steps: vec![],
+            spikes: None,
+            resonances: vec![],
+            drift: None,
+        }
+    }
+}
+
 /// A narrowband resonance: white noise through a damped oscillator of natural frequency `f0_hz`
 /// and quality factor `q`, of standard deviation `sigma` (rad/s or m/s²).
 ///

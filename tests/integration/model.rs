@@ -19,19 +19,7 @@ fn record(c: Coefficients, fs: f64, n: usize, seed: u64) -> Vec<f64> {
         rate_hz: fs,
         duration_s: n as f64 / fs,
         seed,
-        channels: vec![ChannelSpec {
-            name: "g".into(),
-            sensor: Sensor::Gyro,
-            bias: 0.0,
-            noise: c,
-            gauss_markov: vec![],
-            sinusoids: vec![],
-            temperature_coefficient: 0.0,
-            steps: vec![],
-            spikes: None,
-            resonances: vec![],
-            drift: None,
-        }],
+        channels: vec![ChannelSpec::new("g", Sensor::Gyro, c)],
         temperature: None,
     };
     simulate(&spec).unwrap().channels.remove(0).samples

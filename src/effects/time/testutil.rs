@@ -39,17 +39,8 @@ pub fn white_sigma(c: &Coefficients) -> f64 {
 
 pub fn channel(noise: Coefficients) -> ChannelSpec {
     ChannelSpec {
-        name: "g".into(),
-        sensor: Sensor::Gyro,
         bias: 1e-3,
-        noise,
-        gauss_markov: vec![],
-        sinusoids: vec![],
-        temperature_coefficient: 0.0,
-        steps: vec![],
-        spikes: None,
-        resonances: vec![],
-        drift: None,
+        ..ChannelSpec::new("g", Sensor::Gyro, noise)
     }
 }
 
