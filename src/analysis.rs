@@ -14,7 +14,8 @@ use serde::Serialize;
 use crate::avar::{Deviations, Statistic};
 use crate::effects::{close_loop, AuxSeries, LoopConfig, LoopReport};
 use crate::model::{
-    compare, fit_avar, fit_psd, FitError, FitOptions, NoiseFit, Sensor, TermComparison,
+    combine, compare, detect_bandwidth, fit_avar, fit_psd, Bandwidth, Combined, FitError,
+    FitOptions, NoiseFit, Sensor, TermComparison,
 };
 use crate::pipeline::{ChannelDeviations, ChannelPsd};
 
@@ -23,6 +24,11 @@ use crate::pipeline::{ChannelDeviations, ChannelPsd};
 pub struct ChannelAnalysis {
     pub channel: String,
     pub sensor: Sensor,
+    /// The sensor's low-pass roll-off and the band both fits keep (`None`: none detected, or
+    /// detection off).
+    pub bandwidth: Option<Bandwidth>,
+    /// One answer per coefficient from the two fits, the IEEE read-offs and the warnings.
+    pub combined: Combined,
     /// IEEE model fitted to the overlapping Allan variance.
     #[serde(serialize_with = "outcome")]
     pub allan: Result<NoiseFit, FitError>,
@@ -94,8 +100,14 @@ pub fn analyze_channel(
     else {
         return a;
     };
+    // The loop fits and searches inside the band the base fits kept.
+    let mut cfg = cfg.clone();
+    if let Some(b) = &a.bandwidth {
+        cfg.fit = b.restrict(&cfg.fit);
+    }
+    cfg.fit.detect_bandwidth = false;
     let initial = (dev.clone(), input.psd.psd.clone(), binned.clone());
-    if let Some(outcome) = close_loop(input.samples, input.rate_hz, aux, cfg, Some(initial)) {
+    if let Some(outcome) = close_loop(input.samples, input.rate_hz, aux, &cfg, Some(initial)) {
         if !outcome.report.steps.is_empty() {
             if let Some(f) = outcome.allan {
                 a.allan = Ok(f);
@@ -104,20 +116,39 @@ pub fn analyze_channel(
                 a.spectrum = Ok(f);
             }
             a.comparison = comparison(&a.allan, &a.spectrum);
+            let final_dev = outcome.report.corrected.as_ref().map_or(dev, |(d, _)| d);
+            a.combined = combine(a.allan_fit(), a.spectrum_fit(), Some(final_dev));
         }
         a.residual_loop = Some(outcome.report);
     }
     a
 }
 
-/// Fits one channel from its estimates: the OADEV of `deviations` and the binned spectrum of `psd`.
+/// Fits one channel from its estimates: the OADEV of `deviations` and the binned spectrum of `psd`,
+/// inside the sensor's bandwidth when `opts.detect_bandwidth` and the spectrum shows a roll-off.
 pub fn fit_channel(
     sensor: Sensor,
     psd: &ChannelPsd,
     deviations: &ChannelDeviations,
     opts: &FitOptions,
 ) -> ChannelAnalysis {
-    let allan = oadev(deviations)
+    let dev = oadev(deviations);
+    let bandwidth = match (&psd.binned, opts.detect_bandwidth) {
+        (Some(binned), true) => {
+            let taus = dev.map_or(&[][..], |d| &d.tau_s[..]);
+            detect_bandwidth(&psd.psd, binned, taus, opts)
+        }
+        _ => None,
+    };
+    let restricted;
+    let opts = match &bandwidth {
+        Some(b) => {
+            restricted = b.restrict(opts);
+            &restricted
+        }
+        None => opts,
+    };
+    let allan = dev
         .ok_or(FitError::InvalidOptions(
             "the Allan fit needs the overlapping Allan variance (oadev)".into(),
         ))
@@ -129,9 +160,12 @@ pub fn fit_channel(
         )),
     };
     let comparison = comparison(&allan, &spectrum);
+    let combined = combine(allan.as_ref().ok(), spectrum.as_ref().ok(), dev);
     ChannelAnalysis {
         channel: psd.channel.clone(),
         sensor,
+        bandwidth,
+        combined,
         allan,
         spectrum,
         comparison,

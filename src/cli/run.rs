@@ -172,6 +172,25 @@ pub fn run(job: &Job) -> i32 {
                     bar.line(&summary_line(&r));
                 }
                 for a in r.analysis.iter().flatten() {
+                    if let (Some(b), false) = (&a.bandwidth, job.output.quiet) {
+                        bar.line(&format!(
+                            "band  {} {}: sensor low-pass at {} Hz (order {}); fits use f ≤ {} Hz, τ ≥ {} s",
+                            path.display(),
+                            a.channel,
+                            report::sig4(b.lowpass.corner_hz),
+                            b.lowpass.order,
+                            report::sig4(b.fit_max_freq_hz),
+                            b.fit_min_tau_s.map_or("–".into(), report::sig4),
+                        ));
+                    }
+                    for w in &a.combined.warnings {
+                        bar.line(&format!(
+                            "warning {} {}: {}",
+                            path.display(),
+                            a.channel,
+                            w.describe()
+                        ));
+                    }
                     let Some(l) = &a.residual_loop else { continue };
                     let found: Vec<String> = l
                         .steps

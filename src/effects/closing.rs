@@ -26,7 +26,8 @@ use serde::Serialize;
 
 use crate::avar::{compute, Confidence, Deviations, Statistic, TauGrid};
 use crate::model::{
-    fit_avar_with, fit_psd_with, EffectEstimate, EffectShape, FitOptions, NoiseFit, Term,
+    detect_bandwidth, fit_avar_with, fit_psd_with, Bandwidth, EffectEstimate, EffectShape,
+    FitOptions, NoiseFit, Term,
 };
 use crate::psd::{log_bin, welch, BinnedPsd, Psd, WelchConfig};
 
@@ -137,6 +138,9 @@ pub struct Rejected {
 /// The loop's account of one channel.
 #[derive(Debug, Clone, Serialize)]
 pub struct LoopReport {
+    /// The sensor low-pass the loop found and stayed inside of (only when its configuration asked
+    /// it to look: `analyze` detects it before the loop and hands the restricted band in).
+    pub bandwidth: Option<Bandwidth>,
     pub initial: ErrorFigures,
     pub steps: Vec<LoopStep>,
     #[serde(rename = "final")]
@@ -312,6 +316,18 @@ pub fn close_loop(
         Some(e) => e,
         None => estimates(y, fs, cfg)?,
     };
+    // Fit and search only inside the sensor's bandwidth (see `model::bandwidth`).
+    let mut cfg = cfg.clone();
+    let bandwidth = if cfg.fit.detect_bandwidth {
+        cfg.fit.detect_bandwidth = false;
+        detect_bandwidth(&psd, &binned, &dev.tau_s, &cfg.fit)
+    } else {
+        None
+    };
+    if let Some(b) = &bandwidth {
+        cfg.fit = b.restrict(&cfg.fit);
+    }
+    let cfg = &cfg;
     let (allan, spectrum) = fits(&dev, &psd, &binned, cfg, None);
     let mut state = State {
         y: y.to_vec(),
@@ -378,6 +394,7 @@ pub fn close_loop(
     }
     let final_figures = figures(state.allan.as_ref(), state.spectrum.as_ref());
     let report = LoopReport {
+        bandwidth,
         initial,
         steps,
         final_figures,
@@ -457,10 +474,14 @@ fn propose(
     };
     let stochastic = state.stochastic.as_ref();
     let min_f = 4.0 * fs / state.psd.nperseg.max(1) as f64;
+    // Nothing above the fit band is searched: beyond it lies the sensor's filter edge, which the
+    // model does not describe.
+    let max_f = cfg.fit.max_freq_hz.unwrap_or(f64::INFINITY);
     let excess = find_excess(
         &state.psd,
         |f| model_one_sided(spectrum, stochastic, f, fs),
         min_f,
+        max_f,
         LINE_P,
     );
     for e in excess.iter().take(3) {

@@ -35,11 +35,12 @@ fn chi2_sf(x: f64, k: f64) -> f64 {
 }
 
 /// Groups of bins of `psd` (one-sided density) above `model_one_sided(f)`, strongest first. Bins
-/// below `min_freq_hz`, DC and Nyquist are not searched.
+/// outside [`min_freq_hz`, `max_freq_hz`], DC and Nyquist are not searched.
 pub fn find_excess(
     psd: &Psd,
     model_one_sided: impl Fn(f64) -> f64,
     min_freq_hz: f64,
+    max_freq_hz: f64,
     family_p: f64,
 ) -> Vec<Excess> {
     let n = psd.freq_hz.len();
@@ -47,7 +48,7 @@ pub fn find_excess(
         return Vec::new();
     }
     let searched: Vec<usize> = (1..n - 1)
-        .filter(|&k| psd.freq_hz[k] >= min_freq_hz)
+        .filter(|&k| psd.freq_hz[k] >= min_freq_hz && psd.freq_hz[k] <= max_freq_hz)
         .collect();
     let m = searched.len().max(1) as f64;
     let model: Vec<f64> = psd.freq_hz.iter().map(|&f| model_one_sided(f)).collect();

@@ -80,8 +80,14 @@ pub fn fit_avar_with(
     if !matches!(d.statistic, Statistic::Oadev | Statistic::Adev) {
         return Err(FitError::UnsupportedStatistic(d.statistic));
     }
+    let min_tau = opts.min_tau_s.unwrap_or(0.0);
     let keep: Vec<usize> = (0..d.len())
-        .filter(|&i| d.variance[i] > 0.0 && d.variance[i].is_finite() && d.tau_s[i] > 0.0)
+        .filter(|&i| {
+            d.variance[i] > 0.0
+                && d.variance[i].is_finite()
+                && d.tau_s[i] > 0.0
+                && d.tau_s[i] >= min_tau * (1.0 - 1e-9)
+        })
         .collect();
     let n_samples = samples(d);
     let tau: Vec<f64> = keep.iter().map(|&i| d.tau_s[i]).collect();

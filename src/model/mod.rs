@@ -58,6 +58,8 @@
 mod alias;
 mod avar_fit;
 mod band_correlation;
+mod bandwidth;
+mod combine;
 mod compare;
 mod correlation;
 mod effect;
@@ -74,13 +76,17 @@ mod terms;
 mod units;
 
 pub use avar_fit::{fit_avar, fit_avar_with};
+pub use bandwidth::{detect_bandwidth, Bandwidth, FilterForm, LowPass, BAND_BIAS};
+pub use combine::{combine, read_offs, Combined, CombinedTerm, FitWarning, ReadOff};
 pub use compare::{compare, TermComparison};
 pub use effect::EffectShape;
 pub use error::FitError;
 pub use options::FitOptions;
 pub use psd_fit::{fit_psd, fit_psd_with};
 pub use result::{
-    Candidate, Criterion, Domain, EffectEstimate, FitPoint, NoiseFit, TermEstimate, UpperLimit,
+    Candidate, Criterion, Domain, EffectEstimate, FitPoint, LackOfFit, NoiseFit, TermEstimate,
+    UpperLimit,
 };
+pub use select::LACK_OF_FIT_P;
 pub use terms::{Coefficients, GaussMarkov, Sinusoid, Term, FLICKER_PLATEAU};
 pub use units::{CoefUnit, Sensor, UnitError};

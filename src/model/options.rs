@@ -24,6 +24,13 @@ pub struct FitOptions {
     /// [`fit_avar`](super::fit_avar)). Off treats them as independent, which makes the intervals
     /// too narrow.
     pub correlated_points: bool,
+    /// Allan fit: shortest τ used, s. `None`: every τ. Set per channel from the detected sensor
+    /// bandwidth ([`crate::model::detect_bandwidth`]) where a low-pass filter distorts the
+    /// shortest τ.
+    pub min_tau_s: Option<f64>,
+    /// Look for the sensor's low-pass roll-off before fitting and fit only inside the band where
+    /// the recording follows the IEEE model ([`crate::model::detect_bandwidth`]).
+    pub detect_bandwidth: bool,
 }
 
 impl Default for FitOptions {
@@ -35,6 +42,8 @@ impl Default for FitOptions {
             min_freq_hz: None,
             max_freq_hz: None,
             correlated_points: true,
+            min_tau_s: None,
+            detect_bandwidth: true,
         }
     }
 }

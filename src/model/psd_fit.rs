@@ -26,6 +26,7 @@
 use crate::psd::{BinnedPsd, Psd, Scaling};
 
 use super::band_correlation::band_correlation;
+use super::bandwidth::LowPass;
 use super::correlation::Correlation;
 use super::fit::{Problem, EFFECT, TERMS};
 use super::result::Domain;
@@ -80,6 +81,30 @@ pub fn fit_psd_with(
     opts: &FitOptions,
     effect: Option<&dyn EffectShape>,
 ) -> Result<NoiseFit, FitError> {
+    let (problem, x) = spectrum_problem(psd, binned, opts, effect, None)?;
+    let forced = if effect.is_some() { 1 << EFFECT } else { 0 };
+    select_and_fit(
+        &problem,
+        &problem,
+        &x,
+        opts.mask(),
+        forced,
+        opts,
+        Domain::Spectrum,
+    )
+}
+
+/// The spectrum fit's problem (and the band centres of its points): the bands of `binned` inside
+/// the fit band of `opts`, each term's sampled PSD averaged over the band's bins. With `response`
+/// every column but quantisation's is multiplied by the filter's power gain |H(f)|²: the sensor's
+/// filter acts on the rate before the output is rounded to its quantisation step.
+pub(crate) fn spectrum_problem(
+    psd: &Psd,
+    binned: &BinnedPsd,
+    opts: &FitOptions,
+    effect: Option<&dyn EffectShape>,
+    response: Option<&LowPass>,
+) -> Result<(Problem, Vec<f64>), FitError> {
     if psd.scaling != Scaling::Density {
         return Err(FitError::NotDensity);
     }
@@ -124,20 +149,30 @@ pub fn fit_psd_with(
                     first + i * df
                 })
                 .collect();
+            let gain: Vec<f64> = at
+                .iter()
+                .map(|&f| response.map_or(1.0, |h| h.power_gain(f)))
+                .collect();
             std::array::from_fn(|j| {
                 if j == EFFECT {
                     return effect.map_or(0.0, |e| {
-                        at.iter().map(|&f| e.psd_unit(f, psd.rate_hz)).sum::<f64>()
+                        at.iter()
+                            .zip(&gain)
+                            .map(|(&f, g)| g * e.psd_unit(f, psd.rate_hz))
+                            .sum::<f64>()
                             / at.len() as f64
                     });
                 }
                 let term = Term::ALL[j];
                 // Second-order leakage of S ∝ f^−p: ½S″·σ² = S·p(p+1)σ²/(2f²).
                 let p = -f64::from(term.alpha());
+                let filtered = term != Term::Quantization;
                 at.iter()
-                    .map(|&f| {
+                    .zip(&gain)
+                    .map(|(&f, &g)| {
                         let leak = 1.0 + p * (p + 1.0) * spread2 / (2.0 * f * f);
-                        term.psd_sampled_unit(f, psd.rate_hz) * leak
+                        let g = if filtered { g } else { 1.0 };
+                        term.psd_sampled_unit(f, psd.rate_hz) * leak * g
                     })
                     .sum::<f64>()
                     / at.len() as f64
@@ -152,14 +187,5 @@ pub fn fit_psd_with(
         cross: Vec::new(),
     };
     let x: Vec<f64> = keep.iter().map(|&b| binned.freq_hz[b]).collect();
-    let forced = if effect.is_some() { 1 << EFFECT } else { 0 };
-    select_and_fit(
-        &problem,
-        &problem,
-        &x,
-        opts.mask(),
-        forced,
-        opts,
-        Domain::Spectrum,
-    )
+    Ok((problem, x))
 }

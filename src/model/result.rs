@@ -95,6 +95,30 @@ pub struct Candidate {
     pub proper: bool,
 }
 
+/// How well the final model fits, and what that did to the intervals.
+///
+/// The intervals of every coefficient (and the upper limits of absent terms) are computed from
+/// the inverse Fisher information scaled by the dispersion max(1, χ²/dof) (quasi-likelihood): a
+/// model the data reject by χ²/dof = 100 gets intervals 10× wider than the Fisher ones, not the
+/// ±0.1 % an exact model would earn. The inflation is applied whatever the p-value (under a right
+/// model it is ≈ 1); `significant` marks a misfit the report warns about.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LackOfFit {
+    pub chi2_per_dof: f64,
+    /// P(χ²_dof ≥ χ²) under the model.
+    pub p_value: f64,
+    /// Factor the intervals were widened by, √max(1, χ²/dof).
+    pub inflation: f64,
+    /// p-value below [`crate::model::LACK_OF_FIT_P`]: the model does not describe the data.
+    pub significant: bool,
+    /// τ (s) or frequency (Hz) range of the contiguous run of points that carries the largest
+    /// excess Σ(z² − 1): where the misfit lives.
+    pub worst_from: f64,
+    pub worst_to: f64,
+    /// Share of Σz² in that run.
+    pub worst_share: f64,
+}
+
 /// One point the fit used.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct FitPoint {
@@ -125,6 +149,8 @@ pub struct NoiseFit {
     pub chi2: f64,
     /// Points − fitted columns (kept terms and the effect).
     pub dof: usize,
+    /// The χ² test of this model and the widening of its intervals.
+    pub lack_of_fit: LackOfFit,
     /// The power of the effect the fit was asked to include ([`crate::model::EffectShape`]), as
     /// an amplitude (√power) with its interval; `None` for the base model.
     pub effect: Option<EffectEstimate>,

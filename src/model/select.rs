@@ -18,8 +18,8 @@ use super::fit::{members, Mask, Problem, BASE, EFFECT, TERMS};
 use super::interval::{coefficient_interval, normal_quantile};
 use super::result::Domain;
 use super::{
-    Candidate, EffectEstimate, FitError, FitOptions, FitPoint, NoiseFit, Term, TermEstimate,
-    UpperLimit,
+    Candidate, EffectEstimate, FitError, FitOptions, FitPoint, LackOfFit, NoiseFit, Term,
+    TermEstimate, UpperLimit,
 };
 
 /// Fits `problem` (points at `x`), choosing among the subsets of `allowed` by their scores on
@@ -96,8 +96,15 @@ pub(crate) fn select_and_fit(
         return Err(FitError::NoSignal);
     }
     let (z, chi2, _) = problem.likelihood(&fit);
+    let dof = n.saturating_sub(idx.len());
+    let lack = lack_of_fit(&z, x, chi2, dof);
+    // Quasi-likelihood: every variance scaled by the dispersion χ²/dof when it exceeds 1, so that
+    // a model the data reject does not keep the intervals of one they accept.
+    let dispersion = lack.inflation * lack.inflation;
 
-    let cov = problem.covariance(&fit.weights, &idx);
+    let cov = problem
+        .covariance(&fit.weights, &idx)
+        .map(|c| scale(c, dispersion));
     let effect = idx.iter().position(|&j| j == EFFECT).map(|a| {
         let var = cov.as_ref().map_or(f64::INFINITY, |cov| cov[a][a]);
         let (lo, hi, edf) = coefficient_interval(fit.c[EFFECT], var, p);
@@ -137,7 +144,9 @@ pub(crate) fn select_and_fit(
             let pos = all.iter().position(|&t| t == j).unwrap_or(0);
             let sd = problem
                 .covariance(&fit.weights, &all)
-                .map_or(f64::INFINITY, |cov| cov[pos][pos].max(0.0).sqrt());
+                .map_or(f64::INFINITY, |cov| {
+                    (dispersion * cov[pos][pos]).max(0.0).sqrt()
+                });
             UpperLimit {
                 term: Term::ALL[j],
                 upper: (c[j].max(0.0) + zq * sd).sqrt(),
@@ -159,11 +168,69 @@ pub(crate) fn select_and_fit(
         estimates,
         upper_limits,
         chi2,
-        dof: n.saturating_sub(idx.len()),
+        dof,
+        lack_of_fit: lack,
         effect,
         criterion: opts.criterion,
         confidence: p,
         candidates: fits.into_iter().map(|(c, _)| c).collect(),
         points,
     })
+}
+
+fn scale(mut cov: Vec<Vec<f64>>, k: f64) -> Vec<Vec<f64>> {
+    for row in &mut cov {
+        for v in row {
+            *v *= k;
+        }
+    }
+    cov
+}
+
+/// p-value below which the misfit is reported as a lack of fit.
+pub const LACK_OF_FIT_P: f64 = 1e-3;
+
+/// The χ² test of the final model and where its residuals are largest: the contiguous run of
+/// points with the largest Σ(z² − 1) (the maximum-sum segment).
+fn lack_of_fit(z: &[f64], x: &[f64], chi2: f64, dof: usize) -> LackOfFit {
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    let per_dof = chi2 / dof.max(1) as f64;
+    let p_value = if dof == 0 {
+        1.0
+    } else {
+        ChiSquared::new(dof as f64).map_or(1.0, |d| d.sf(chi2))
+    };
+    let (mut best, mut best_range) = (f64::NEG_INFINITY, (0, 0));
+    let (mut run, mut start) = (0.0, 0);
+    for (i, v) in z.iter().enumerate() {
+        if run <= 0.0 {
+            run = 0.0;
+            start = i;
+        }
+        run += v * v - 1.0;
+        if run > best {
+            best = run;
+            best_range = (start, i);
+        }
+    }
+    let total: f64 = z.iter().map(|v| v * v).sum();
+    let (a, b) = best_range;
+    let share = if total > 0.0 {
+        z[a..=b].iter().map(|v| v * v).sum::<f64>() / total
+    } else {
+        0.0
+    };
+    LackOfFit {
+        chi2_per_dof: per_dof,
+        p_value,
+        inflation: if per_dof.is_finite() {
+            per_dof.max(1.0).sqrt()
+        } else {
+            1.0
+        },
+        significant: p_value < LACK_OF_FIT_P,
+        worst_from: x.get(a).copied().unwrap_or(f64::NAN),
+        worst_to: x.get(b).copied().unwrap_or(f64::NAN),
+        worst_share: share,
+    }
 }

@@ -22,6 +22,9 @@ use super::summary::sig4;
 
 /// The value Kalibr gets for `term` of one channel: (SI value, is an upper limit, domain).
 fn value_of(a: &ChannelAnalysis, term: Term) -> Option<(f64, bool, &'static str)> {
+    if let Some(c) = a.combined.get(term) {
+        return Some((c.value, false, "combined"));
+    }
     let pick = |fit: &NoiseFit, domain| {
         fit.get(term).map(|e| (e.value, false, domain)).or_else(|| {
             fit.upper_limits
@@ -68,11 +71,11 @@ pub fn imu_yaml(source: &str, rate_hz: f64, topic: &str, analysis: &[ChannelAnal
     );
     let _ = writeln!(
         out,
-        "# Each value is the worst (largest) axis of the Allan-variance fit (spectrum fit"
+        "# Each value is the worst (largest) axis of the combined estimate (summary.md says"
     );
     let _ = writeln!(
         out,
-        "# where that failed). A random walk the fit did not find significant is given as"
+        "# which fit each comes from). A random walk no fit found significant is given as"
     );
     let _ = writeln!(
         out,

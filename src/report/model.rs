@@ -104,6 +104,34 @@ pub fn coefficients_table(results: &[&FileResult]) -> Table {
     let mut nums: [Vec<f64>; 7] = Default::default();
     for r in results {
         for a in r.analysis.iter().flatten() {
+            // The one answer per term first; the per-domain rows below are its evidence.
+            for t in &a.combined.terms {
+                let [_, datasheet, _] = units_of(a.sensor, t.term);
+                let text = [
+                    file_name(&r.recording),
+                    a.channel.clone(),
+                    format!("{:?}", a.sensor).to_lowercase(),
+                    "combined".to_string(),
+                    t.term.symbol().to_string(),
+                    if t.hull { "kept_fits_disagree" } else { "kept" }.to_string(),
+                    datasheet.label(),
+                ];
+                for (c, x) in cols.iter_mut().zip(text) {
+                    c.push(x);
+                }
+                let row = [
+                    t.value,
+                    t.lo,
+                    t.hi,
+                    datasheet.from_si(t.value),
+                    datasheet.from_si(t.lo),
+                    datasheet.from_si(t.hi),
+                    f64::NAN,
+                ];
+                for (c, x) in nums.iter_mut().zip(row) {
+                    c.push(x);
+                }
+            }
             for (domain, fit) in fits(a) {
                 let Some(fit) = fit else { continue };
                 let kept = fit

@@ -161,13 +161,19 @@ fn file_section(out: &mut String, r: &FileResult) {
          criterion did not admit it (its upper limit is in report.json).",
         confidence_text(analysis)
     );
+    combined_section(out, analysis);
+    let _ = writeln!(
+        out,
+        "\n### Evidence: the two fits\n\nEach term as the spectrum (PSD) and the Allan variance (AV) \
+         fits give it; the combined values above come from these."
+    );
     for sensor in [Sensor::Gyro, Sensor::Accel] {
         let channels: Vec<&ChannelAnalysis> =
             analysis.iter().filter(|a| a.sensor == sensor).collect();
         if channels.is_empty() {
             continue;
         }
-        let _ = writeln!(out, "\n### {}", sensor_title(sensor));
+        let _ = writeln!(out, "\n#### {}", sensor_title(sensor));
         for term in Term::ALL {
             let present = channels.iter().any(|a| {
                 a.allan_fit().and_then(|f| f.get(term)).is_some()
@@ -202,6 +208,79 @@ fn file_section(out: &mut String, r: &FileResult) {
             if let Some(reason) = failure(r) {
                 let _ = writeln!(out, "\n- {} {what} fit failed: {reason}", a.channel);
             }
+        }
+    }
+}
+
+/// The combined coefficients first (one answer per term, both display units), the IEEE read-offs
+/// beside them, the sensor bandwidth and every warning.
+fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
+    let _ = writeln!(
+        out,
+        "\n### Coefficients (combined)\n\nOne value per term: the more precise of the two fits, or \
+         the one whose model has the term's neighbours (Q–N–B–K–R) when only one does; the interval \
+         spans both fits where they disagree. Read-offs: N = σ(1 s), B = min σ/0.664, K = σ(3 s) \
+         from the Allan deviation (the slope there says whether the term rules it).\n"
+    );
+    let _ = writeln!(
+        out,
+        "| channel | term | value | interval | from | read-off | slope at read-off |"
+    );
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|");
+    for a in analysis {
+        for t in &a.combined.terms {
+            let [_, u1, _] = units_of(a.sensor, t.term);
+            let read = a.combined.read_offs.iter().find(|r| r.term == t.term);
+            let _ = writeln!(
+                out,
+                "| {} | {} | {} {} | [{}, {}]{} | {} | {} | {} |",
+                a.channel,
+                t.term.symbol(),
+                sig4(u1.from_si(t.value)),
+                u1.pretty(),
+                sig4(u1.from_si(t.lo)),
+                sig4(u1.from_si(t.hi)),
+                if t.hull { " (both fits)" } else { "" },
+                match t.source {
+                    crate::model::Domain::Allan => "AV",
+                    crate::model::Domain::Spectrum => "PSD",
+                },
+                read.map_or("–".into(), |r| format!(
+                    "{} at τ = {} s",
+                    sig4(u1.from_si(r.value)),
+                    sig4(r.tau_s)
+                )),
+                read.map_or("–".into(), |r| format!("{:+.2}", r.slope)),
+            );
+        }
+    }
+    let mut notes = Vec::new();
+    for a in analysis {
+        if let Some(b) = &a.bandwidth {
+            notes.push(format!(
+                "{}: sensor low-pass detected ({} form, corner {} Hz, order {}, {} dB/decade, ΔBIC {:.0}); \
+                 fits use the spectrum up to {} Hz and the Allan variance from τ = {} s",
+                a.channel,
+                match b.lowpass.form {
+                    crate::model::FilterForm::Analog => "analog",
+                    crate::model::FilterForm::Digital { .. } => "digital",
+                },
+                sig4(b.lowpass.corner_hz),
+                b.lowpass.order,
+                b.slope_db_per_decade,
+                b.delta_bic,
+                sig4(b.fit_max_freq_hz),
+                b.fit_min_tau_s.map_or("–".into(), sig4),
+            ));
+        }
+        for w in &a.combined.warnings {
+            notes.push(format!("**warning** {}: {}", a.channel, w.describe()));
+        }
+    }
+    if !notes.is_empty() {
+        let _ = writeln!(out);
+        for n in notes {
+            let _ = writeln!(out, "- {n}");
         }
     }
 }

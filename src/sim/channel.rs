@@ -3,6 +3,7 @@
 use crate::model::{Coefficients, GaussMarkov, Sinusoid};
 
 use super::flicker::flicker;
+use super::lowpass::apply_lowpass;
 use super::processes::{
     add_drift, add_gauss_markov, add_ramp, add_random_walk, add_resonance, add_sinusoid, add_white,
 };
@@ -143,6 +144,9 @@ pub fn simulate_channel(
     }
     for st in &spec.steps {
         add_step(&mut y, rate_hz, st);
+    }
+    if let Some(lp) = &spec.lowpass {
+        apply_lowpass(&mut y, rate_hz, lp);
     }
     if c.q > 0.0 {
         let start = rng_for(channel_seed, Component::Quantisation, 0).uniform();

@@ -44,6 +44,7 @@
 mod channel;
 mod error;
 mod flicker;
+mod lowpass;
 mod processes;
 mod quantize;
 pub mod rng;
@@ -58,9 +59,10 @@ use crate::units::{Kind, Unit};
 pub use channel::ChannelTruth;
 pub use error::SimError;
 pub use flicker::shaped_noise;
+pub use lowpass::lowpass_power_gain;
 pub use spec::{
-    ChannelSpec, DriftSpec, ExponentialDrift, ResonanceSpec, SimSpec, SinusoidSpec, SpikeSpec,
-    StepSpec, TemperatureSpec,
+    ChannelSpec, DriftSpec, ExponentialDrift, LowPassSpec, ResonanceSpec, SimSpec, SinusoidSpec,
+    SpikeSpec, StepSpec, TemperatureSpec,
 };
 
 /// A simulated recording.
@@ -209,6 +211,7 @@ mod tests {
                     spikes: None,
                     resonances: vec![],
                     drift: None,
+                    lowpass: None,
                 },
                 ChannelSpec::new(
                     "ax",

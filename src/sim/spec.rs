@@ -68,6 +68,20 @@ pub struct ChannelSpec {
     /// A deterministic bias drift (settling and curvature; neither is an IEEE term).
     #[serde(default)]
     pub drift: Option<DriftSpec>,
+    /// The sensor's internal low-pass (anti-alias, digital low-pass) filter, applied to the sum of
+    /// everything above before quantisation and spikes; `None`: none (each sample the exact mean
+    /// rate over its interval).
+    #[serde(default)]
+    pub lowpass: Option<LowPassSpec>,
+}
+
+/// A Butterworth low-pass of `order` with its −3 dB corner at `corner_hz` (below Nyquist),
+/// realised digitally at the output rate (see `sim/lowpass.rs`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LowPassSpec {
+    pub corner_hz: f64,
+    pub order: u32,
 }
 
 impl ChannelSpec {
@@ -85,6 +99,7 @@ impl ChannelSpec {
             spikes: None,
             resonances: vec![],
             drift: None,
+            lowpass: None,
         }
     }
 }
@@ -302,6 +317,14 @@ impl SimSpec {
                     if !(e.tc_s.is_finite() && e.tc_s > 0.0) {
                         return Err(bad("drift.exponential.tc_s", e.tc_s));
                     }
+                }
+            }
+            if let Some(lp) = &ch.lowpass {
+                if !(lp.corner_hz.is_finite() && lp.corner_hz > 0.0 && lp.corner_hz < nyquist_hz) {
+                    return Err(bad("lowpass.corner_hz", lp.corner_hz));
+                }
+                if !(1..=16).contains(&lp.order) {
+                    return Err(bad("lowpass.order", f64::from(lp.order)));
                 }
             }
             if ch.temperature_coefficient != 0.0 && self.temperature.is_none() {

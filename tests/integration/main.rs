@@ -3,6 +3,7 @@ mod support;
 
 mod analyze;
 mod avar;
+mod bandwidth;
 mod cli;
 mod gpu;
 mod io;

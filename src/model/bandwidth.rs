@@ -1,0 +1,443 @@
+//! The band in which a recording follows the IEEE model: the sensor's own low-pass filter.
+//!
+//! Real inertial sensors filter their output (an analog anti-alias filter, a digital low-pass, a
+//! decimation filter), so the spectrum falls away below Nyquist and the shortest-τ Allan variances
+//! fall below N²/τ. Fitted as if it were IEEE noise, the roll-off pulls N down, B and K up (the
+//! Allan fit bends its model towards the depressed first points) and leaves a misfit the residual
+//! loop then "explains" with resonances that do not exist.
+//!
+//! **Detection.** The spectrum fit's model (the terms the criterion chose on the whole band, with
+//! N added) is refitted with every column but quantisation's (the output is rounded after the
+//! filter) multiplied by a Butterworth-type power gain |H(f)|² = 1/(1 + (f/f_c)^(2n)) (an analog
+//! filter) or its bilinear digital form with tan(πf/fs) for f (a digital low-pass at the output
+//! rate, which reaches zero at Nyquist), over a grid of corners f_c (24 per decade from 8 bands
+//! above the lowest fitted band to 2·fs; below Nyquist for the digital form) and orders
+//! n ∈ {1, 2, 3, 4, 5, 6, 8}, then refined on a finer grid of f_c (96 per decade) at the best n. A
+//! roll-off is reported when the best filtered model beats the unfiltered one by ΔBIC < −10
+//! (two more parameters; "very strong" on the Kass–Raftery scale) and attenuates the top fitted
+//! band by more than the rule below tolerates. The family is a shape, not a claim about the
+//! sensor's circuit: a digital or FIR filter's edge is matched by a high order.
+//!
+//! **Band rule.** Both fits then use only what the filter leaves within [`BAND_BIAS`] (2 %) of
+//! its unfiltered value: the spectrum up to the frequency where 1 − |H|² = 2 % (then checked on
+//! the data: while the IEEE model fitted below the edge leaves a deficit of z < −3 in the top 0.2
+//! decade, the edge moves down by 1/20 decade, and the Allan cut up by the same factor), and the Allan
+//! variances from the shortest τ at and beyond which white noise through the filter reads at most
+//! 2 % low. The white-noise Allan bias at τ = mτ₀ is exact for sampled data:
+//! 1 − r(m) = (4m/fs)·∫₀^{fs/2} (1 − |H(f)|²)·sin⁴(πfm/fs)/(m²·sin²(πf/fs)) df, since the same
+//! integral of 1 gives fs/(4m). White noise is the worst case: B and K live at low frequencies
+//! the filter passes. Nothing above the band's edge is searched for effects either.
+
+use serde::Serialize;
+
+use crate::psd::{BinnedPsd, Psd};
+
+use super::fit::{members, Mask, Problem};
+use super::psd_fit::spectrum_problem;
+use super::{FitOptions, Term};
+
+/// Largest bias a band's filter may leave in the points the fits use (2 %).
+pub const BAND_BIAS: f64 = 0.02;
+/// ΔBIC a low-pass model must reach to be reported.
+const DETECT_BIC: f64 = -10.0;
+/// Orders tried.
+const ORDERS: [u32; 7] = [1, 2, 3, 4, 5, 6, 8];
+
+/// The frequency axis of a [`LowPass`] response.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "form", rename_all = "snake_case")]
+pub enum FilterForm {
+    /// An analog filter before the sampler: |H|² = 1/(1 + (f/f_c)^(2n)).
+    Analog,
+    /// A digital filter at the output rate (bilinear transform of the analog one):
+    /// |H|² = 1/(1 + (tan(πf/fs)/tan(πf_c/fs))^(2n)), which reaches zero at Nyquist.
+    Digital { rate_hz: f64 },
+}
+
+/// A Butterworth-type low-pass power response: −3 dB at the corner, a roll-off of −20·n dB per
+/// decade beyond it (analog form), or its bilinear digital counterpart.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LowPass {
+    pub corner_hz: f64,
+    pub order: u32,
+    #[serde(flatten)]
+    pub form: FilterForm,
+}
+
+impl LowPass {
+    /// f/f_c on the filter's own frequency axis (tan-warped for the digital form).
+    fn ratio(&self, f_hz: f64) -> f64 {
+        match self.form {
+            FilterForm::Analog => (f_hz / self.corner_hz).abs(),
+            FilterForm::Digital { rate_hz } => {
+                let w =
+                    |f: f64| (std::f64::consts::PI * f.abs().min(rate_hz / 2.0) / rate_hz).tan();
+                w(f_hz) / w(self.corner_hz)
+            }
+        }
+    }
+
+    /// |H(f)|².
+    pub fn power_gain(&self, f_hz: f64) -> f64 {
+        let r = self.ratio(f_hz);
+        if r.is_finite() {
+            1.0 / (1.0 + r.powi(2 * self.order as i32))
+        } else {
+            0.0
+        }
+    }
+
+    /// The frequency where the gain has fallen by `bias` (1 − |H|² = bias).
+    pub fn edge_hz(&self, bias: f64) -> f64 {
+        let r = (bias / (1.0 - bias)).powf(1.0 / (2.0 * f64::from(self.order)));
+        match self.form {
+            FilterForm::Analog => self.corner_hz * r,
+            FilterForm::Digital { rate_hz } => {
+                let pi = std::f64::consts::PI;
+                (r * (pi * self.corner_hz / rate_hz).tan()).atan() * rate_hz / pi
+            }
+        }
+    }
+
+    /// The fraction by which white noise through the filter reads low in the Allan variance at
+    /// τ = m/fs (see the module docs).
+    pub fn white_avar_bias(&self, rate_hz: f64, m: u64) -> f64 {
+        let nyquist = rate_hz / 2.0;
+        // Below `start` the filter loses less than 1e-9 of the power: nothing to integrate.
+        let start = self.edge_hz(1e-9).min(nyquist);
+        if start >= nyquist {
+            return 0.0;
+        }
+        let mf = m as f64;
+        // 32 points per period fs/m of sin⁴(πfm/fs), at least 4096.
+        let points = ((32.0 * mf * (nyquist - start) / rate_hz) as usize).max(4096);
+        let step = (nyquist - start) / points as f64;
+        let sum: f64 = (0..points)
+            .map(|i| {
+                let f = start + (i as f64 + 0.5) * step;
+                let u = std::f64::consts::PI * f / rate_hz;
+                let t = (u * mf).sin().powi(4) / (mf * mf * u.sin().powi(2));
+                (1.0 - self.power_gain(f)) * t
+            })
+            .sum();
+        (4.0 * mf / rate_hz * sum * step).clamp(0.0, 1.0)
+    }
+}
+
+/// A detected roll-off and the band the fits keep.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Bandwidth {
+    /// The fitted response.
+    pub lowpass: LowPass,
+    /// Asymptotic roll-off, dB per decade (−20·order).
+    pub slope_db_per_decade: f64,
+    /// Attenuation of the fitted response at Nyquist, dB (positive; at most 200: the digital form
+    /// is zero there).
+    pub nyquist_attenuation_db: f64,
+    /// Highest band centre the spectrum fit keeps, Hz.
+    pub fit_max_freq_hz: f64,
+    /// Shortest τ the Allan fit keeps, s (`None`: every τ of the grid is biased beyond the rule).
+    pub fit_min_tau_s: Option<f64>,
+    /// BIC of the filtered model minus the unfiltered one (negative: the roll-off is real).
+    pub delta_bic: f64,
+}
+
+impl Bandwidth {
+    /// `opts` restricted to this band (an explicit band limit the user set stays if narrower).
+    pub fn restrict(&self, opts: &FitOptions) -> FitOptions {
+        let mut out = opts.clone();
+        out.max_freq_hz = Some(
+            opts.max_freq_hz
+                .map_or(self.fit_max_freq_hz, |f| f.min(self.fit_max_freq_hz)),
+        );
+        let tau = self.fit_min_tau_s.unwrap_or(f64::INFINITY);
+        out.min_tau_s = Some(opts.min_tau_s.map_or(tau, |t| t.max(tau)));
+        out
+    }
+}
+
+/// −2·log-likelihood of the IRLS fit of `mask` on `problem` (∞ if it fails).
+fn neg2ll(problem: &Problem, mask: Mask) -> f64 {
+    let fit = problem.irls(mask);
+    if members(mask).iter().all(|&j| fit.c[j] <= 0.0) {
+        return f64::INFINITY;
+    }
+    let (_, _, ll) = problem.likelihood(&fit);
+    if ll.is_nan() {
+        f64::INFINITY
+    } else {
+        ll
+    }
+}
+
+/// The subset of `allowed` with the best criterion score on `problem` (eligible subsets only).
+fn best_mask(problem: &Problem, allowed: Mask, opts: &FitOptions) -> Option<Mask> {
+    let n = problem.len();
+    (1..=allowed)
+        .filter(|&m| m & allowed == m)
+        .filter_map(|mask| {
+            let fit = problem.irls(mask);
+            let idx = members(mask);
+            if !idx.iter().all(|&j| fit.c[j] > 0.0) {
+                return None;
+            }
+            let (_, _, ll) = problem.likelihood(&fit);
+            let score = opts.criterion.score(ll, idx.len(), n);
+            score.is_finite().then_some((score, mask))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, m)| m)
+}
+
+/// Looks for the sensor's low-pass roll-off in `psd` (binned as `binned`) and, if there is one,
+/// the band both fits keep; `taus_s`: the Allan τ grid the band's shortest τ is chosen from.
+/// `None`: no roll-off the data show (or the spectrum cannot be fitted at all).
+pub fn detect_bandwidth(
+    psd: &Psd,
+    binned: &BinnedPsd,
+    taus_s: &[f64],
+    opts: &FitOptions,
+) -> Option<Bandwidth> {
+    let fs = psd.rate_hz;
+    let (plain, x) = spectrum_problem(psd, binned, opts, None, None).ok()?;
+    let n = plain.len();
+    if n < 8 {
+        return None;
+    }
+    let allowed = opts.mask();
+    let white = 1u8 << Term::RandomWalk.index();
+    let mask = best_mask(&plain, allowed, opts)? | (white & allowed);
+    if mask & white == 0 {
+        return None;
+    }
+    let base = neg2ll(&plain, mask);
+    let try_filter = |lp: LowPass| -> f64 {
+        match spectrum_problem(psd, binned, opts, None, Some(&lp)) {
+            Ok((p, _)) => neg2ll(&p, mask),
+            Err(_) => f64::INFINITY,
+        }
+    };
+    // Corners from 8 bands above the lowest fitted one to 2·fs.
+    let f_lo = x[8.min(n - 1)];
+    let f_hi = 2.0 * fs;
+    let grid = |per_decade: f64, lo: f64, hi: f64| -> Vec<f64> {
+        let steps = ((hi / lo).log10() * per_decade).ceil().max(1.0) as usize;
+        (0..=steps)
+            .map(|k| lo * 10f64.powf(k as f64 / per_decade))
+            .collect()
+    };
+    let mut best = (
+        f64::INFINITY,
+        LowPass {
+            corner_hz: f_hi,
+            order: 1,
+            form: FilterForm::Analog,
+        },
+    );
+    let forms = [FilterForm::Analog, FilterForm::Digital { rate_hz: fs }];
+    for form in forms {
+        // A digital corner lies below Nyquist.
+        let hi = match form {
+            FilterForm::Analog => f_hi,
+            FilterForm::Digital { .. } => 0.499 * fs,
+        };
+        for &order in &ORDERS {
+            for &corner_hz in &grid(24.0, f_lo, hi) {
+                let lp = LowPass {
+                    corner_hz,
+                    order,
+                    form,
+                };
+                let ll = try_filter(lp);
+                if ll < best.0 {
+                    best = (ll, lp);
+                }
+            }
+        }
+    }
+    // Refine the corner at the best order.
+    let coarse = best.1;
+    let step = 10f64.powf(1.0 / 24.0);
+    for &corner_hz in &grid(96.0, coarse.corner_hz / step, coarse.corner_hz * step) {
+        let lp = LowPass {
+            corner_hz,
+            ..coarse
+        };
+        if matches!(lp.form, FilterForm::Digital { .. }) && corner_hz >= 0.5 * fs {
+            continue;
+        }
+        let ll = try_filter(lp);
+        if ll < best.0 {
+            best = (ll, lp);
+        }
+    }
+    let (ll, lowpass) = best;
+    let delta_bic = ll - base + 2.0 * (n as f64).ln();
+    let top = x[n - 1];
+    if !(delta_bic < DETECT_BIC) || 1.0 - lowpass.power_gain(top) <= BAND_BIAS {
+        return None;
+    }
+    let shaped_edge = lowpass.edge_hz(BAND_BIAS);
+    let fit_max_freq_hz = checked_edge(psd, binned, opts, mask, shaped_edge);
+    // Where the data moved the edge down, the filter acts lower than its fitted shape says: the
+    // Allan cut moves up by the same factor.
+    let tau_scale = shaped_edge / fit_max_freq_hz;
+    // The shortest τ after the last one the filter biases beyond the rule.
+    let mut sorted: Vec<f64> = taus_s.iter().copied().filter(|t| *t > 0.0).collect();
+    sorted.sort_by(f64::total_cmp);
+    let biased = |tau: f64| {
+        let m = (tau * fs).round().max(1.0) as u64;
+        lowpass.white_avar_bias(fs, m) > BAND_BIAS
+    };
+    // Bias falls with τ; scan from the short end and stop after a run of clean octaves.
+    let mut last_biased = None;
+    let mut clean_run = 0.0;
+    let mut prev: Option<f64> = None;
+    for (i, &tau) in sorted.iter().enumerate() {
+        if biased(tau) {
+            last_biased = Some(i);
+            clean_run = 0.0;
+        } else if let Some(p) = prev {
+            clean_run += (tau / p).log2();
+            if clean_run >= 3.0 {
+                break;
+            }
+        }
+        prev = Some(tau);
+    }
+    let fit_min_tau_s = match last_biased {
+        None => sorted.first().copied(),
+        Some(i) => sorted.get(i + 1).copied(),
+    }
+    .and_then(|t| {
+        sorted
+            .iter()
+            .copied()
+            .find(|&s| s >= t * tau_scale * (1.0 - 1e-9))
+    });
+    Some(Bandwidth {
+        lowpass,
+        slope_db_per_decade: -20.0 * f64::from(lowpass.order),
+        nyquist_attenuation_db: (-10.0 * lowpass.power_gain(fs / 2.0).log10()).min(200.0),
+        fit_max_freq_hz,
+        fit_min_tau_s,
+        delta_bic,
+    })
+}
+
+/// Deficit (sum of the top bands' z over √count) below which the edge is lowered.
+const EDGE_DEFICIT_Z: f64 = -3.0;
+
+/// The edge checked on the data: the unfiltered model fitted below `edge` must leave no deficit in
+/// its top 0.2 decade (the fitted response is a family shape and may be wrong near the corner);
+/// while it does, the edge is lowered by 1/20 decade (at most a decade in all).
+fn checked_edge(psd: &Psd, binned: &BinnedPsd, opts: &FitOptions, mask: Mask, edge: f64) -> f64 {
+    let mut edge = edge;
+    for _ in 0..20 {
+        let mut o = opts.clone();
+        o.max_freq_hz = Some(edge);
+        let Ok((p, x)) = spectrum_problem(psd, binned, &o, None, None) else {
+            break;
+        };
+        if p.len() < 8 {
+            break;
+        }
+        let fit = p.irls(mask);
+        let (z, _, _) = p.likelihood(&fit);
+        let floor = edge / 10f64.powf(0.2);
+        let top: Vec<f64> = z
+            .iter()
+            .zip(&x)
+            .filter(|(_, &f)| f >= floor)
+            .map(|(z, _)| *z)
+            .collect();
+        if top.is_empty() {
+            break;
+        }
+        let stat = top.iter().sum::<f64>() / (top.len() as f64).sqrt();
+        if stat > EDGE_DEFICIT_Z {
+            break;
+        }
+        edge /= 10f64.powf(0.05);
+    }
+    edge
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn digital_form_is_the_simulators_bilinear_butterworth() {
+        // The simulator's filter is an independent implementation (biquad sections).
+        for order in [1, 2, 4] {
+            let spec = crate::sim::LowPassSpec {
+                corner_hz: 20.0,
+                order,
+            };
+            let lp = LowPass {
+                corner_hz: 20.0,
+                order,
+                form: FilterForm::Digital { rate_hz: 100.0 },
+            };
+            for f in [1.0, 10.0, 20.0, 35.0, 49.0] {
+                let want = crate::sim::lowpass_power_gain(&spec, 100.0, f);
+                assert!(
+                    (lp.power_gain(f) - want).abs() < 1e-9,
+                    "order {order} f {f}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn white_bias_of_a_brick_wall_at_nyquist_is_zero_and_of_nothing_is_one() {
+        // A filter far above Nyquist loses nothing; one far below loses everything.
+        let high = LowPass {
+            corner_hz: 1e6,
+            order: 4,
+            form: FilterForm::Analog,
+        };
+        assert!(high.white_avar_bias(100.0, 1) < 1e-9);
+        let low = LowPass {
+            corner_hz: 1e-6,
+            order: 4,
+            form: FilterForm::Analog,
+        };
+        assert!((low.white_avar_bias(100.0, 4) - 1.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn white_bias_matches_filtered_noise() {
+        // Measured: Allan variance of white noise through a sharp low-pass at half Nyquist,
+        // against the integral. m = 1: the first difference sees the filter fully.
+        let lp = LowPass {
+            corner_hz: 25.0,
+            order: 8,
+            form: FilterForm::Analog,
+        };
+        // For m = 1 the transfer is sin²(πf/fs); a brick wall at fs/4 loses
+        // 4·∫_{1/4}^{1/2} sin²(πx) dx = 1/2 + 1/π of it. An 8th-order edge is close to that.
+        let brick = 0.5 + 1.0 / std::f64::consts::PI;
+        let got = lp.white_avar_bias(100.0, 1);
+        assert!((got - brick).abs() < 0.03, "{got} vs {brick}");
+        // Long τ: the loss falls roughly as 1/m.
+        let b8 = lp.white_avar_bias(100.0, 8);
+        let b64 = lp.white_avar_bias(100.0, 64);
+        assert!(b64 < b8 && b64 > 0.0 && b64 < 0.2 * b8, "{b8} {b64}");
+    }
+
+    #[test]
+    fn edge_is_where_the_gain_has_fallen_by_the_bias() {
+        for form in [FilterForm::Analog, FilterForm::Digital { rate_hz: 100.0 }] {
+            let lp = LowPass {
+                corner_hz: 20.0,
+                order: 3,
+                form,
+            };
+            let f = lp.edge_hz(BAND_BIAS);
+            assert!((1.0 - lp.power_gain(f) - BAND_BIAS).abs() < 1e-12);
+            assert!((lp.power_gain(20.0) - 0.5).abs() < 1e-12);
+        }
+    }
+}

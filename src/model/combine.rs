@@ -1,0 +1,374 @@
+//! One answer per coefficient: the Allan and spectrum fits combined by a stated rule, the IEEE
+//! read-offs beside them, and a named warning for every reason not to trust the numbers.
+//!
+//! **The rule.** Both fits rest on the same samples, so their errors are strongly and positively
+//! correlated (for N, nearly fully). For two unbiased estimates with standard errors s₁ ≤ s₂ and
+//! correlation ρ ≥ s₁/s₂, the minimum-variance linear combination puts all its weight on the more
+//! precise one (the weight of the other is (s₁² − ρs₁s₂)/(s₁² + s₂² − 2ρs₁s₂) ≤ 0), and no
+//! weighting of such estimates narrows the interval below s₁. So the combined value is the
+//! estimate with the narrower relative interval, with its interval — except where only one of the
+//! fits kept every neighbour of the term (the terms of adjacent slope, Q–N–B–K–R) that the other
+//! kept: a fit without K lets B absorb K's power, so B then comes from the fit that has K
+//! whatever the widths — and unless the two intervals do
+//! not overlap: then the estimates disagree (one domain is missing an effect or sees a filter the
+//! other does not), the combined interval is the hull of both, and a `domains_disagree` warning
+//! names the term and the ratio. A term kept in one domain only comes from that domain (the rate
+//! ramp is invisible to the spectrum; quantisation to the Allan variance at long τ).
+//!
+//! **Read-offs.** What an engineer reads off the Allan deviation by hand (IEEE Std 952 Annex C):
+//! N = σ(1 s), B = min σ / 0.664, K = σ(3 s), with the measured points' intervals. Each is an
+//! upper bound on its fitted term (every other term only adds to σ²): a fitted term whose Allan
+//! variance alone exceeds the measured one at its read-off τ by more than the point's 99 %
+//! upper bound is a contradiction, and `contradicts_read_off` says so.
+
+use serde::Serialize;
+
+use crate::avar::{chi2_quantile, Deviations};
+
+use super::{Domain, NoiseFit, Term, TermEstimate, FLICKER_PLATEAU};
+
+/// A coefficient's one answer.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CombinedTerm {
+    pub term: Term,
+    pub value: f64,
+    pub lo: f64,
+    pub hi: f64,
+    /// Which fit the value comes from.
+    pub source: Domain,
+    /// The interval is the hull of both fits' intervals (they disagree).
+    pub hull: bool,
+}
+
+/// A hand read-off of the Allan deviation curve.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ReadOff {
+    pub term: Term,
+    /// τ it is read at, s (1 s for N, the minimum for B, 3 s for K).
+    pub tau_s: f64,
+    pub value: f64,
+    pub lo: f64,
+    pub hi: f64,
+    /// Local slope of log σ against log τ there (−½ where N rules, 0 at B's plateau, +½ for K):
+    /// a read-off is the term's value only where the slope is the term's.
+    pub slope: f64,
+}
+
+/// A reason not to take a number at face value.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum FitWarning {
+    /// The final model does not describe the data (χ² test, p below
+    /// [`crate::model::LACK_OF_FIT_P`]); its intervals were widened by `inflation`.
+    LackOfFit {
+        domain: Domain,
+        chi2_per_dof: f64,
+        p_value: f64,
+        inflation: f64,
+        /// τ (s) or frequency (Hz) range where the misfit lives.
+        from: f64,
+        to: f64,
+    },
+    /// The two fits' intervals of a term do not overlap.
+    DomainsDisagree {
+        term: Term,
+        allan: f64,
+        spectrum: f64,
+    },
+    /// A fitted term alone exceeds the measured Allan variance at its read-off τ.
+    ContradictsReadOff {
+        term: Term,
+        fitted: f64,
+        read_off: f64,
+        tau_s: f64,
+    },
+}
+
+impl FitWarning {
+    /// A one-line description (SI values).
+    pub fn describe(&self) -> String {
+        match self {
+            FitWarning::LackOfFit {
+                domain,
+                chi2_per_dof,
+                p_value,
+                inflation,
+                from,
+                to,
+            } => {
+                let (what, unit) = match domain {
+                    Domain::Allan => ("Allan", "s (τ)"),
+                    Domain::Spectrum => ("spectrum", "Hz"),
+                };
+                format!(
+                    "lack of fit in the {what} domain: χ²/dof = {chi2_per_dof:.3} (p = {p_value:.1e}), \
+                     worst at {from:.4}–{to:.4} {unit}; intervals widened ×{inflation:.2}"
+                )
+            }
+            FitWarning::DomainsDisagree {
+                term,
+                allan,
+                spectrum,
+            } => format!(
+                "{} disagrees between the fits: spectrum/Allan = {:.3}; the combined interval spans both",
+                term.symbol(),
+                spectrum / allan
+            ),
+            FitWarning::ContradictsReadOff {
+                term,
+                fitted,
+                read_off,
+                tau_s,
+            } => format!(
+                "fitted {} = {fitted:.4e} lies above what the Allan deviation allows at τ = {tau_s:.3} s \
+                 (read-off {read_off:.4e})",
+                term.symbol()
+            ),
+        }
+    }
+}
+
+/// The combined coefficients of one channel, the read-offs and the warnings.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Combined {
+    pub terms: Vec<CombinedTerm>,
+    pub read_offs: Vec<ReadOff>,
+    pub warnings: Vec<FitWarning>,
+}
+
+impl Combined {
+    /// The combined estimate of `term`, if either fit kept it.
+    pub fn get(&self, term: Term) -> Option<&CombinedTerm> {
+        self.terms.iter().find(|t| t.term == term)
+    }
+}
+
+fn relative_width(e: &TermEstimate) -> f64 {
+    if e.value > 0.0 {
+        (e.hi - e.lo) / e.value
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Combines the two fits' estimates (either may be missing) and checks them against the read-offs
+/// of `dev` (the overlapping Allan variance the Allan fit was made on).
+pub fn combine(
+    allan: Option<&NoiseFit>,
+    spectrum: Option<&NoiseFit>,
+    dev: Option<&Deviations>,
+) -> Combined {
+    let mut warnings = Vec::new();
+    for fit in [allan, spectrum].into_iter().flatten() {
+        let l = fit.lack_of_fit;
+        if l.significant {
+            warnings.push(FitWarning::LackOfFit {
+                domain: fit.domain,
+                chi2_per_dof: l.chi2_per_dof,
+                p_value: l.p_value,
+                inflation: l.inflation,
+                from: l.worst_from,
+                to: l.worst_to,
+            });
+        }
+    }
+    let mut terms = Vec::new();
+    for term in Term::ALL {
+        let a = allan.and_then(|f| f.get(term));
+        let s = spectrum.and_then(|f| f.get(term));
+        let combined = match (a, s) {
+            (None, None) => continue,
+            (Some(a), None) => pick(a, Domain::Allan),
+            (None, Some(s)) => pick(s, Domain::Spectrum),
+            (Some(a), Some(s)) => {
+                let (a_whole, s_whole) = (
+                    complete(allan, spectrum, term),
+                    complete(spectrum, allan, term),
+                );
+                let prefer_allan = match (a_whole, s_whole) {
+                    (true, false) => true,
+                    (false, true) => false,
+                    _ => relative_width(a) <= relative_width(s),
+                };
+                let (best, domain) = if prefer_allan {
+                    (a, Domain::Allan)
+                } else {
+                    (s, Domain::Spectrum)
+                };
+                let mut c = pick(best, domain);
+                if a.hi < s.lo || s.hi < a.lo {
+                    c.lo = a.lo.min(s.lo);
+                    c.hi = a.hi.max(s.hi);
+                    c.hull = true;
+                    warnings.push(FitWarning::DomainsDisagree {
+                        term,
+                        allan: a.value,
+                        spectrum: s.value,
+                    });
+                }
+                c
+            }
+        };
+        terms.push(combined);
+    }
+    let read_offs = dev.map(read_offs).unwrap_or_default();
+    if let Some(dev) = dev {
+        for t in &terms {
+            if let Some((tau, bound)) = allan_bound(dev, t.term) {
+                let alone = t.term.avar_unit(tau) * t.value * t.value;
+                if alone > bound {
+                    let read_off = read_offs
+                        .iter()
+                        .find(|r| r.term == t.term)
+                        .map_or(f64::NAN, |r| r.value);
+                    warnings.push(FitWarning::ContradictsReadOff {
+                        term: t.term,
+                        fitted: t.value,
+                        read_off,
+                        tau_s: tau,
+                    });
+                }
+            }
+        }
+    }
+    Combined {
+        terms,
+        read_offs,
+        warnings,
+    }
+}
+
+/// Whether `fit` kept every neighbour of `term` (the terms of adjacent slope: Q–N–B–K–R) that
+/// `other` kept: a fit that lacks a neighbour the other one found lets its estimate of `term`
+/// absorb that neighbour's power (a spectrum without K reads B high).
+fn complete(fit: Option<&NoiseFit>, other: Option<&NoiseFit>, term: Term) -> bool {
+    let (Some(fit), Some(other)) = (fit, other) else {
+        return false;
+    };
+    let i = term.index();
+    [i.checked_sub(1), Some(i + 1)]
+        .into_iter()
+        .flatten()
+        .filter_map(|j| Term::ALL.get(j))
+        .all(|&u| other.get(u).is_none() || fit.get(u).is_some())
+}
+
+fn pick(e: &TermEstimate, source: Domain) -> CombinedTerm {
+    CombinedTerm {
+        term: e.term,
+        value: e.value,
+        lo: e.lo,
+        hi: e.hi,
+        source,
+        hull: false,
+    }
+}
+
+/// Index of the measured point nearest to τ in log τ, and whether τ lies inside the grid.
+fn nearest(dev: &Deviations, tau: f64) -> Option<usize> {
+    let (first, last) = (*dev.tau_s.first()?, *dev.tau_s.last()?);
+    if !(tau >= first * 0.999 && tau <= last * 1.001) {
+        return None;
+    }
+    (0..dev.len())
+        .filter(|&i| dev.variance[i] > 0.0)
+        .min_by(|&a, &b| {
+            let da = (dev.tau_s[a] / tau).ln().abs();
+            let db = (dev.tau_s[b] / tau).ln().abs();
+            da.total_cmp(&db)
+        })
+}
+
+/// σ² interpolated in log–log at τ, with its interval and local slope of log σ.
+fn at(dev: &Deviations, tau: f64) -> Option<(f64, f64, f64, f64)> {
+    let i = nearest(dev, tau)?;
+    let j = if dev.tau_s[i] <= tau {
+        i + 1
+    } else {
+        i.checked_sub(1)?
+    };
+    let j = if j < dev.len() && dev.variance[j] > 0.0 {
+        j
+    } else {
+        return Some((
+            dev.variance[i],
+            dev.variance_lo[i],
+            dev.variance_hi[i],
+            f64::NAN,
+        ));
+    };
+    let (a, b) = (i.min(j), i.max(j));
+    let t = ((tau / dev.tau_s[a]).ln() / (dev.tau_s[b] / dev.tau_s[a]).ln()).clamp(0.0, 1.0);
+    let lerp = |v: &[f64]| (v[a].ln() * (1.0 - t) + v[b].ln() * t).exp();
+    let slope = 0.5 * (dev.variance[b] / dev.variance[a]).ln() / (dev.tau_s[b] / dev.tau_s[a]).ln();
+    Some((
+        lerp(&dev.variance),
+        lerp(&dev.variance_lo),
+        lerp(&dev.variance_hi),
+        slope,
+    ))
+}
+
+/// The index of the smallest Allan variance.
+fn minimum(dev: &Deviations) -> Option<usize> {
+    (0..dev.len())
+        .filter(|&i| dev.variance[i] > 0.0 && dev.variance[i].is_finite())
+        .min_by(|&a, &b| dev.variance[a].total_cmp(&dev.variance[b]))
+}
+
+/// The IEEE read-offs of N, B and K from `dev`.
+pub fn read_offs(dev: &Deviations) -> Vec<ReadOff> {
+    let mut out = Vec::new();
+    for (term, tau) in [(Term::RandomWalk, 1.0), (Term::RateRandomWalk, 3.0)] {
+        if let Some((v, lo, hi, slope)) = at(dev, tau) {
+            // N = σ(1 s)·√1; K = σ(3 s)·√(3/3): the slope lines' values at their τ.
+            out.push(ReadOff {
+                term,
+                tau_s: tau,
+                value: v.sqrt(),
+                lo: lo.sqrt(),
+                hi: hi.sqrt(),
+                slope,
+            });
+        }
+    }
+    if let Some(i) = minimum(dev) {
+        let k = FLICKER_PLATEAU.sqrt();
+        let slope = if i > 0 && i + 1 < dev.len() {
+            0.5 * (dev.variance[i + 1] / dev.variance[i - 1]).ln()
+                / (dev.tau_s[i + 1] / dev.tau_s[i - 1]).ln()
+        } else {
+            f64::NAN
+        };
+        out.push(ReadOff {
+            term: Term::BiasInstability,
+            tau_s: dev.tau_s[i],
+            value: dev.variance[i].sqrt() / k,
+            lo: dev.variance_lo[i].sqrt() / k,
+            hi: dev.variance_hi[i].sqrt() / k,
+            slope,
+        });
+    }
+    out.sort_by_key(|r| r.term.index());
+    out
+}
+
+/// The τ at which a term's Allan variance alone is checked against the measurement and the
+/// measurement's 99 % upper bound there (from the point's EDF).
+fn allan_bound(dev: &Deviations, term: Term) -> Option<(f64, f64)> {
+    let i = match term {
+        Term::RandomWalk => nearest(dev, 1.0)?,
+        Term::BiasInstability => minimum(dev)?,
+        Term::RateRandomWalk => nearest(dev, 3.0)?,
+        _ => return None,
+    };
+    let nu = dev
+        .edf
+        .get(i)
+        .copied()
+        .filter(|v| v.is_finite() && *v > 0.0)?;
+    Some((
+        dev.tau_s[i],
+        dev.variance[i] * nu / chi2_quantile(0.005, nu),
+    ))
+}

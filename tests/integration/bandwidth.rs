@@ -1,0 +1,134 @@
+//! The sensor's low-pass filter: found in the spectrum, the fits kept inside the band where the
+//! recording follows the IEEE model, no effect claimed from the filter's edge; nothing found where
+//! there is no filter. The simulator's filter (digital Butterworth sections, `sim/lowpass.rs`) is
+//! an implementation independent of the detector's response family.
+
+use imunoise::avar::{compute, Confidence, Statistic, TauGrid};
+use imunoise::effects::{close_loop, LoopConfig};
+use imunoise::model::{CoefUnit, Coefficients, FilterForm, FitOptions, LowPass, Term};
+use imunoise::psd::WelchConfig;
+use imunoise::sim::{lowpass_power_gain, simulate, LowPassSpec, SimSpec};
+use serde_json::json;
+
+const FS: f64 = 100.0;
+
+fn config() -> LoopConfig {
+    LoopConfig {
+        welch: WelchConfig::new(4096),
+        bins_per_decade: 20,
+        taus: TauGrid::Octave,
+        confidence: Confidence::OneSigma,
+        fit: FitOptions::default(),
+    }
+}
+
+fn truth() -> Coefficients {
+    Coefficients {
+        n: CoefUnit::DegPerSqrtH.to_si(0.15),
+        b: CoefUnit::DegPerH.to_si(3.0),
+        k: CoefUnit::DegPerHPerSqrtH.to_si(20.0),
+        ..Default::default()
+    }
+}
+
+fn record(lowpass: Option<LowPassSpec>, seconds: f64, seed: u64) -> Vec<f64> {
+    let spec = json!({ "rate_hz": FS, "duration_s": seconds, "seed": seed,
+        "channels": [{ "name": "g", "sensor": "gyro", "noise": truth(), "lowpass": lowpass }] });
+    let spec: SimSpec = serde_json::from_value(spec).unwrap();
+    simulate(&spec).unwrap().channels.remove(0).samples
+}
+
+#[test]
+fn a_sensor_low_pass_is_found_and_the_fits_stay_inside_it() {
+    for (seed, order, corner_hz) in [(61, 2, 20.0), (62, 4, 30.0), (63, 1, 10.0)] {
+        let lp = LowPassSpec { corner_hz, order };
+        let y = record(Some(lp), 3000.0, seed);
+        let o = close_loop(&y, FS, &[], &config(), None).expect("loop ran");
+        let b = o.report.bandwidth.expect("roll-off found");
+        println!(
+            "order {order} at {corner_hz} Hz: fitted {:?} order {} at {:.2} Hz, band f ≤ {:.2} Hz, τ ≥ {:?} s",
+            b.lowpass.form, b.lowpass.order, b.lowpass.corner_hz, b.fit_max_freq_hz, b.fit_min_tau_s
+        );
+        assert!(
+            (b.lowpass.corner_hz / corner_hz - 1.0).abs() < 0.25,
+            "{b:?}"
+        );
+        // The band kept: the true filter has lost at most 3 % of the power there.
+        let loss = 1.0 - lowpass_power_gain(&lp, FS, b.fit_max_freq_hz);
+        assert!(loss <= 0.03, "loss {loss} at {}", b.fit_max_freq_hz);
+        assert!(b.fit_min_tau_s.is_some_and(|t| t <= 2.0), "{b:?}");
+        // No effect from the filter's edge.
+        for s in &o.report.steps {
+            assert!(
+                !matches!(s.effect.kind(), "resonance" | "gauss_markov" | "sinusoid"),
+                "order {order}: {} added",
+                s.effect.kind()
+            );
+        }
+        // N from both fits within 4 % of the truth.
+        for fit in [o.allan.as_ref(), o.spectrum.as_ref()] {
+            let fit = fit.expect("fit");
+            let n = fit.get(Term::RandomWalk).expect("N kept").value;
+            assert!(
+                (n / truth().n - 1.0).abs() < 0.04,
+                "{:?}: N {n}",
+                fit.domain
+            );
+        }
+    }
+}
+
+#[test]
+fn no_roll_off_is_claimed_without_a_filter() {
+    for seed in 70..74 {
+        let y = record(None, 3000.0, seed);
+        let o = close_loop(&y, FS, &[], &config(), None).expect("loop ran");
+        assert!(
+            o.report.bandwidth.is_none(),
+            "seed {seed}: {:?}",
+            o.report.bandwidth
+        );
+    }
+}
+
+/// The Allan bias of filtered white noise that sets the band's shortest τ, against Allan
+/// variances measured on white noise through the simulator's filter.
+#[test]
+fn white_noise_allan_bias_matches_the_measured_one() {
+    let lp = LowPassSpec {
+        corner_hz: 15.0,
+        order: 4,
+    };
+    let model = LowPass {
+        corner_hz: 15.0,
+        order: 4,
+        form: FilterForm::Digital { rate_hz: FS },
+    };
+    let n = CoefUnit::DegPerSqrtH.to_si(0.15);
+    let spec = json!({ "rate_hz": FS, "duration_s": 10_000.0, "seed": 5,
+        "channels": [{ "name": "g", "sensor": "gyro", "noise": { "n": n }, "lowpass": lp }] });
+    let spec: SimSpec = serde_json::from_value(spec).unwrap();
+    let y = simulate(&spec).unwrap().channels.remove(0).samples;
+    let d = compute(
+        &y,
+        FS,
+        &TauGrid::Explicit(vec![1, 2, 4, 8, 16, 32]),
+        Statistic::Oadev,
+        Confidence::OneSigma,
+    )
+    .unwrap();
+    for i in 0..d.len() {
+        let measured = 1.0 - d.variance[i] * d.tau_s[i] / (n * n);
+        let predicted = model.white_avar_bias(FS, d.m[i]);
+        let sd = (2.0 / d.edf[i]).sqrt();
+        println!(
+            "m = {}: measured loss {measured:.4}, predicted {predicted:.4} (±{sd:.4})",
+            d.m[i]
+        );
+        assert!(
+            (measured - predicted).abs() < 4.0 * sd + 1e-3,
+            "m = {}",
+            d.m[i]
+        );
+    }
+}
