@@ -16,7 +16,10 @@
 //! roll-off is reported when the best filtered model beats the unfiltered one by ΔBIC < −10
 //! (two more parameters; "very strong" on the Kass–Raftery scale) and attenuates the top fitted
 //! band by more than the rule below tolerates. The family is a shape, not a claim about the
-//! sensor's circuit: a digital or FIR filter's edge is matched by a high order.
+//! sensor's circuit: a digital or FIR filter's edge is matched by a high order. Bands more than 5
+//! standard errors above the median of their six neighbours (a vibration line, a resonance) are
+//! left out of the comparison: a low-pass explains a deficit only, and a strong line in the band
+//! otherwise made a "roll-off" that trimmed the band below the line.
 //!
 //! **Band rule.** Both fits then use only what the filter leaves within [`BAND_BIAS`] (2 %) of
 //! its unfiltered value: the spectrum up to the frequency where 1 − |H|² = 2 % (then checked on
@@ -40,6 +43,24 @@ use super::{FitOptions, Term};
 pub const BAND_BIAS: f64 = 0.02;
 /// ΔBIC a low-pass model must reach to be reported.
 const DETECT_BIC: f64 = -10.0;
+/// A band this many of its own standard errors above the median of its neighbours is a narrow
+/// excess, left out of the detection.
+const EXCESS_Z: f64 = 5.0;
+
+/// Whether band i stands above the median of the three bands on either side by more than
+/// [`EXCESS_Z`] standard errors: a line or a resonance, not the smooth shape of a filter.
+fn narrow_excess(p: &Problem, i: usize) -> bool {
+    let lo = i.saturating_sub(3);
+    let hi = (i + 3).min(p.len() - 1);
+    let mut around: Vec<f64> = (lo..=hi).filter(|&k| k != i).map(|k| p.value[k]).collect();
+    if around.is_empty() {
+        return false;
+    }
+    around.sort_by(f64::total_cmp);
+    let med = around[around.len() / 2];
+    let nu = p.edf[i][0].max(1.0);
+    med > 0.0 && p.value[i] / med - 1.0 > EXCESS_Z * (2.0 / nu).sqrt()
+}
 /// Orders tried.
 const ORDERS: [u32; 7] = [1, 2, 3, 4, 5, 6, 8];
 
@@ -199,21 +220,31 @@ pub fn detect_bandwidth(
     opts: &FitOptions,
 ) -> Option<Bandwidth> {
     let fs = psd.rate_hz;
-    let (plain, x) = spectrum_problem(psd, binned, opts, None, None).ok()?;
-    let n = plain.len();
-    if n < 8 {
+    let (full, x_full) = spectrum_problem(psd, binned, opts, None, None).ok()?;
+    if full.len() < 8 {
         return None;
     }
     let allowed = opts.mask();
     let white = 1u8 << Term::RandomWalk.index();
-    let mask = best_mask(&plain, allowed, opts)? | (white & allowed);
+    let mask = best_mask(&full, allowed, opts)? | (white & allowed);
     if mask & white == 0 {
+        return None;
+    }
+    // Narrow excesses (lines, resonances) are left out: a low-pass explains only a deficit, and
+    // an excess it cannot fit would otherwise bend the comparison.
+    let keep: Vec<usize> = (0..full.len())
+        .filter(|&i| !narrow_excess(&full, i))
+        .collect();
+    let plain = full.subset(&keep);
+    let x: Vec<f64> = keep.iter().map(|&i| x_full[i]).collect();
+    let n = plain.len();
+    if n < 8 {
         return None;
     }
     let base = neg2ll(&plain, mask);
     let try_filter = |lp: LowPass| -> f64 {
         match spectrum_problem(psd, binned, opts, None, Some(&lp)) {
-            Ok((p, _)) => neg2ll(&p, mask),
+            Ok((p, _)) => neg2ll(&p.subset(&keep), mask),
             Err(_) => f64::INFINITY,
         }
     };
@@ -274,7 +305,7 @@ pub fn detect_bandwidth(
     let (ll, lowpass) = best;
     let delta_bic = ll - base + 2.0 * (n as f64).ln();
     let top = x[n - 1];
-    if !(delta_bic < DETECT_BIC) || 1.0 - lowpass.power_gain(top) <= BAND_BIAS {
+    if delta_bic.is_nan() || delta_bic >= DETECT_BIC || 1.0 - lowpass.power_gain(top) <= BAND_BIAS {
         return None;
     }
     let shaped_edge = lowpass.edge_hz(BAND_BIAS);

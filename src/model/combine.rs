@@ -11,15 +11,20 @@
 //! kept: a fit without K lets B absorb K's power, so B then comes from the fit that has K
 //! whatever the widths — and unless the two intervals do
 //! not overlap: then the estimates disagree (one domain is missing an effect or sees a filter the
-//! other does not), the combined interval is the hull of both, and a `domains_disagree` warning
-//! names the term and the ratio. A term kept in one domain only comes from that domain (the rate
+//! other does not), the value comes from the term's home domain (B, K, R from the Allan variance,
+//! whose long τ reach below the spectrum's lowest band; Q from the spectrum; N from the more
+//! precise), the combined interval is the hull of both, and a `domains_disagree` warning names the
+//! term and the ratio. A term kept in one domain only comes from that domain (the rate
 //! ramp is invisible to the spectrum; quantisation to the Allan variance at long τ).
 //!
 //! **Read-offs.** What an engineer reads off the Allan deviation by hand (IEEE Std 952 Annex C):
 //! N = σ(1 s), B = min σ / 0.664, K = σ(3 s), with the measured points' intervals. Each is an
 //! upper bound on its fitted term (every other term only adds to σ²): a fitted term whose Allan
 //! variance alone exceeds the measured one at its read-off τ by more than the point's 99 %
-//! upper bound is a contradiction, and `contradicts_read_off` says so.
+//! upper bound is a contradiction, and `contradicts_read_off` says so (for B only where the
+//! minimum lies inside the τ grid: at its end the curve has not turned). A term one fit kept and
+//! the other bounds below the first one's interval is a disagreement too: its interval then starts
+//! at 0.
 
 use serde::Serialize;
 
@@ -69,7 +74,8 @@ pub enum FitWarning {
         from: f64,
         to: f64,
     },
-    /// The two fits' intervals of a term do not overlap.
+    /// The two fits' intervals of a term do not overlap, or one fit kept a term the other bounds
+    /// below the first one's interval (then the bound is given as that fit's value).
     DomainsDisagree {
         term: Term,
         allan: f64,
@@ -176,10 +182,36 @@ pub fn combine(
     for term in Term::ALL {
         let a = allan.and_then(|f| f.get(term));
         let s = spectrum.and_then(|f| f.get(term));
+        let upper = |fit: Option<&NoiseFit>| {
+            fit.and_then(|f| f.upper_limits.iter().find(|u| u.term == term))
+                .map(|u| u.upper)
+        };
         let combined = match (a, s) {
             (None, None) => continue,
-            (Some(a), None) => pick(a, Domain::Allan),
-            (None, Some(s)) => pick(s, Domain::Spectrum),
+            (Some(e), None) | (None, Some(e)) => {
+                let (domain, other) = if a.is_some() {
+                    (Domain::Allan, spectrum)
+                } else {
+                    (Domain::Spectrum, allan)
+                };
+                let mut c = pick(e, domain);
+                // The other fit did not admit the term and bounds it below this estimate: the
+                // term may not be there at all.
+                if let Some(u) = upper(other).filter(|&u| u < e.lo) {
+                    c.lo = 0.0;
+                    c.hull = true;
+                    let (allan, spectrum) = match domain {
+                        Domain::Allan => (e.value, u),
+                        Domain::Spectrum => (u, e.value),
+                    };
+                    warnings.push(FitWarning::DomainsDisagree {
+                        term,
+                        allan,
+                        spectrum,
+                    });
+                }
+                c
+            }
             (Some(a), Some(s)) => {
                 let (a_whole, s_whole) = (
                     complete(allan, spectrum, term),
@@ -197,6 +229,15 @@ pub fn combine(
                 };
                 let mut c = pick(best, domain);
                 if a.hi < s.lo || s.hi < a.lo {
+                    // Disagreement: the value from the term's home domain, where its slope regime
+                    // is widest (B, K, R at long τ; Q at high frequency).
+                    c = match term {
+                        Term::BiasInstability | Term::RateRandomWalk | Term::RateRamp => {
+                            pick(a, Domain::Allan)
+                        }
+                        Term::Quantization => pick(s, Domain::Spectrum),
+                        Term::RandomWalk => c,
+                    };
                     c.lo = a.lo.min(s.lo);
                     c.hi = a.hi.max(s.hi);
                     c.hull = true;
@@ -358,7 +399,9 @@ pub fn read_offs(dev: &Deviations) -> Vec<ReadOff> {
 fn allan_bound(dev: &Deviations, term: Term) -> Option<(f64, f64)> {
     let i = match term {
         Term::RandomWalk => nearest(dev, 1.0)?,
-        Term::BiasInstability => minimum(dev)?,
+        // Only a minimum inside the curve is a plateau; at either end of the τ grid the curve is
+        // still falling (or rising) and its lowest point, picked among noisy ones, is biased low.
+        Term::BiasInstability => minimum(dev).filter(|&i| i > 0 && i + 1 < dev.len())?,
         Term::RateRandomWalk => nearest(dev, 3.0)?,
         _ => return None,
     };

@@ -143,6 +143,44 @@ impl Problem {
         Weights { nu, sd, chol }
     }
 
+    /// The problem restricted to the points `keep` (ascending), with their correlation.
+    pub fn subset(&self, keep: &[usize]) -> Problem {
+        let pick = |m: &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
+            keep.iter()
+                .map(|&i| keep.iter().map(|&k| m[i][k]).collect())
+                .collect()
+        };
+        let corr = match &self.corr {
+            None => None,
+            Some(Correlation::Fixed(l)) => {
+                // R = L·Lᵀ, restricted, refactored.
+                let r: Vec<Vec<f64>> = keep
+                    .iter()
+                    .map(|&i| {
+                        keep.iter()
+                            .map(|&k| (0..=i.min(k)).map(|j| l[i][j] * l[k][j]).sum())
+                            .collect()
+                    })
+                    .collect();
+                Correlation::fixed(r)
+            }
+            Some(Correlation::PerTerm(per_term)) => {
+                Some(Correlation::PerTerm(per_term.iter().map(pick).collect()))
+            }
+        };
+        Problem {
+            value: keep.iter().map(|&i| self.value[i]).collect(),
+            basis: keep.iter().map(|&i| self.basis[i]).collect(),
+            edf: keep.iter().map(|&i| self.edf[i]).collect(),
+            corr,
+            cross: if self.cross.is_empty() {
+                Vec::new()
+            } else {
+                keep.iter().map(|&i| self.cross[i]).collect()
+            },
+        }
+    }
+
     /// The model value at point i, floored at 10⁻³ of the measurement.
     fn floored(&self, mu: f64, i: usize) -> f64 {
         mu.max(1e-3 * self.value[i].abs()).max(f64::MIN_POSITIVE)

@@ -234,3 +234,26 @@ fn lack_of_fit(z: &[f64], x: &[f64], chi2: f64, dof: usize) -> LackOfFit {
         worst_share: share,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn misfit_widens_by_root_chi2_per_dof_and_locates_the_worst_run() {
+        // 20 points, residuals 1 except a run of 5 at 6σ (points 10–14).
+        let z: Vec<f64> = (0..20)
+            .map(|i| if (10..15).contains(&i) { 6.0 } else { 1.0 })
+            .collect();
+        let x: Vec<f64> = (0..20).map(f64::from).collect();
+        let chi2: f64 = z.iter().map(|v| v * v).sum();
+        let l = lack_of_fit(&z, &x, chi2, 18);
+        assert!((l.inflation - (chi2 / 18.0).sqrt()).abs() < 1e-12);
+        assert!(l.significant && l.p_value < 1e-10);
+        assert_eq!((l.worst_from, l.worst_to), (10.0, 14.0));
+        // A fit at its expected χ² is not widened.
+        let ok = lack_of_fit(&[1.0; 20], &x, 15.0, 18);
+        assert_eq!(ok.inflation, 1.0);
+        assert!(!ok.significant);
+    }
+}

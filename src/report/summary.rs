@@ -250,7 +250,8 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
                     sig4(u1.from_si(r.value)),
                     sig4(r.tau_s)
                 )),
-                read.map_or("–".into(), |r| format!("{:+.2}", r.slope)),
+                read.filter(|r| r.slope.is_finite())
+                    .map_or("–".into(), |r| format!("{:+.2}", r.slope)),
             );
         }
     }

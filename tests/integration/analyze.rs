@@ -148,7 +148,10 @@ fn simulate_then_analyze_recovers_the_coefficients_in_every_output() {
     let n_si = 0.2 * std::f64::consts::PI / 180.0 / 60.0;
     assert!((value("gyroscope_noise_density") / n_si - 1.0).abs() < 0.05);
     let k_si = 30.0 * std::f64::consts::PI / 180.0 / 3600.0 / 60.0;
-    assert!((value("gyroscope_random_walk") / k_si - 1.0).abs() < 0.25);
+    assert!(
+        (value("gyroscope_random_walk") / k_si - 1.0).abs() < 0.25,
+        "{yaml}"
+    );
     assert_eq!(value("update_rate"), 50.0);
     assert!(!yaml.contains("accelerometer_noise_density:"), "{yaml}");
     assert!(yaml.contains("CONTINUOUS-TIME"));
