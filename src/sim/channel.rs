@@ -77,6 +77,7 @@ enum Component {
     Spikes = 50,
     GaussMarkov = 100,
     Resonance = 200,
+    LineWander = 300,
 }
 
 fn rng_for(channel_seed: u64, component: Component, index: usize) -> Rng {
@@ -129,8 +130,13 @@ pub fn simulate_channel(
         let mut rng = rng_for(channel_seed, Component::Resonance, i);
         add_resonance(&mut y, rate_hz, r, &mut rng);
     }
-    for s in &spec.sinusoids {
-        add_sinusoid(&mut y, rate_hz, s);
+    for (i, s) in spec.sinusoids.iter().enumerate() {
+        add_sinusoid(
+            &mut y,
+            rate_hz,
+            s,
+            &mut rng_for(channel_seed, Component::LineWander, i),
+        );
     }
     if let Some(d) = &spec.drift {
         add_drift(&mut y, rate_hz, d);

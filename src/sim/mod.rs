@@ -61,8 +61,8 @@ pub use error::SimError;
 pub use flicker::shaped_noise;
 pub use lowpass::lowpass_power_gain;
 pub use spec::{
-    ChannelSpec, DriftSpec, ExponentialDrift, LowPassSpec, ResonanceSpec, SimSpec, SinusoidSpec,
-    SpikeSpec, StepSpec, TemperatureSpec,
+    ChannelSpec, DriftSpec, ExponentialDrift, LineWander, LowPassSpec, ResonanceSpec, SimSpec,
+    SinusoidSpec, SpikeSpec, StepSpec, TemperatureSpec,
 };
 
 /// A simulated recording.
@@ -205,6 +205,7 @@ mod tests {
                         amplitude: 1e-3,
                         freq_hz: 3.0,
                         phase_rad: 0.0,
+                        wander: None,
                     }],
                     temperature_coefficient: 1e-4,
                     steps: vec![],

@@ -11,7 +11,7 @@ use std::f64::consts::TAU;
 use crate::model::GaussMarkov;
 
 use super::rng::Rng;
-use super::spec::{DriftSpec, ResonanceSpec, SinusoidSpec};
+use super::spec::{DriftSpec, LineWander, ResonanceSpec, SinusoidSpec};
 
 /// White rate noise with two-sided PSD n² (AV n²/τ): interval means of white noise are white
 /// with σ = n·√fs.
@@ -139,12 +139,45 @@ pub fn add_drift(y: &mut [f64], rate_hz: f64, d: &DriftSpec) {
 
 /// A·sin(2πf₀t + φ), averaged over each interval: amplitude A·sinc(πf₀τ₀) at the interval's
 /// centre.
-pub fn add_sinusoid(y: &mut [f64], rate_hz: f64, s: &SinusoidSpec) {
+pub fn add_sinusoid(y: &mut [f64], rate_hz: f64, s: &SinusoidSpec, rng: &mut Rng) {
+    if let Some(wander) = &s.wander {
+        add_wandering_line(y, rate_hz, s, wander, rng);
+        return;
+    }
     let w = TAU * s.freq_hz / rate_hz;
     let half = w / 2.0;
     let gain = if half == 0.0 { 1.0 } else { half.sin() / half };
     for (i, v) in y.iter_mut().enumerate() {
         *v += s.amplitude * gain * (w * (i as f64 + 0.5) + s.phase_rad).sin();
+    }
+}
+
+/// A line whose frequency and amplitude wander (see [`SinusoidSpec::wander`]): the phase is the
+/// running sum of the instantaneous frequency, each sample the point value at its interval's
+/// middle (the wander is slow against the sample interval, so the interval mean's sinc gain of
+/// the coherent line is applied at the nominal frequency).
+fn add_wandering_line(
+    y: &mut [f64],
+    rate_hz: f64,
+    s: &SinusoidSpec,
+    wander: &LineWander,
+    rng: &mut Rng,
+) {
+    let tau0 = 1.0 / rate_hz;
+    let phi = (-tau0 / wander.wander_tc_s).exp();
+    let kick = (1.0 - phi * phi).max(0.0).sqrt();
+    let half = std::f64::consts::PI * s.freq_hz * tau0;
+    let gain = if half == 0.0 { 1.0 } else { half.sin() / half };
+    let (mut df, mut da) = (
+        wander.freq_wander_hz * rng.gauss(),
+        wander.amplitude_wander * rng.gauss(),
+    );
+    let mut phase = s.phase_rad + TAU * (s.freq_hz + df) * tau0 / 2.0;
+    for v in y.iter_mut() {
+        *v += s.amplitude * (1.0 + da) * gain * phase.sin();
+        df = phi * df + kick * wander.freq_wander_hz * rng.gauss();
+        da = phi * da + kick * wander.amplitude_wander * rng.gauss();
+        phase += TAU * (s.freq_hz + df) * tau0;
     }
 }
 
@@ -208,9 +241,10 @@ mod tests {
             amplitude: 2.0,
             freq_hz: 7.3,
             phase_rad: 0.4,
+            wander: None,
         };
         let mut y = vec![0.0; 100_000];
-        add_sinusoid(&mut y, fs, &s);
+        add_sinusoid(&mut y, fs, &s, &mut Rng::new(1));
         let model = crate::model::Sinusoid {
             amplitude: 2.0,
             freq_hz: 7.3,

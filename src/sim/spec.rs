@@ -181,6 +181,23 @@ pub struct SinusoidSpec {
     pub freq_hz: f64,
     #[serde(default)]
     pub phase_rad: f64,
+    /// Wander of a real machine's line (a pump, a fan whose speed drifts): the instantaneous
+    /// frequency is `freq_hz` + δf(t) and the amplitude A·(1 + δa(t)), δf and δa independent
+    /// first-order Gauss–Markov processes of standard deviations `freq_wander_hz` and
+    /// `amplitude_wander` (relative) and correlation time `wander_tc_s`. `None`: a coherent
+    /// sinusoid.
+    #[serde(default)]
+    pub wander: Option<LineWander>,
+}
+
+/// See [`SinusoidSpec::wander`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LineWander {
+    pub freq_wander_hz: f64,
+    #[serde(default)]
+    pub amplitude_wander: f64,
+    pub wander_tc_s: f64,
 }
 
 /// The sensor temperature: a first-order warm-up from `start_degc` by `rise_degc` with time
@@ -273,6 +290,13 @@ impl SimSpec {
                 }
             }
             for s in &ch.sinusoids {
+                if let Some(w) = &s.wander {
+                    non_negative("sinusoids.wander.freq_wander_hz", w.freq_wander_hz)?;
+                    non_negative("sinusoids.wander.amplitude_wander", w.amplitude_wander)?;
+                    if !(w.wander_tc_s.is_finite() && w.wander_tc_s > 0.0) {
+                        return Err(bad("sinusoids.wander.wander_tc_s", w.wander_tc_s));
+                    }
+                }
                 finite("sinusoids.amplitude", s.amplitude)?;
                 finite("sinusoids.phase_rad", s.phase_rad)?;
                 non_negative("sinusoids.freq_hz", s.freq_hz)?;

@@ -315,6 +315,7 @@ mod tests {
                 amplitude: amp,
                 freq_hz: F0,
                 phase_rad: 0.7,
+                wander: None,
             }];
         }
         (run(ch, n, seed, None).remove(0), c, amp)
