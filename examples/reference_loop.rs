@@ -70,7 +70,9 @@ fn report(name: &str, o: &LoopOutcome) {
     for rej in &r.rejected {
         println!(
             "  considered, not added: {} (ΔBIC {:.1}): {}",
-            rej.kind, rej.delta_bic, rej.note
+            rej.kind,
+            rej.delta_bic.unwrap_or(f64::NAN),
+            rej.note
         );
     }
     if let Some(split) = &r.stationarity {

@@ -37,8 +37,9 @@ use super::shapes::{GaussMarkov1, Resonance};
 use super::slow::{coupling_under_model, drift_under_model, remove_drift, Drift, DETECTION_P};
 use super::time::stats::norm_isf;
 use super::time::{
-    find_spikes, find_step, fit_coupling, fit_sinusoid, remove_coupling, remove_sinusoid,
-    remove_spikes, remove_step, split_record, Coupling, SineFit, Spikes, SplitRecord, Step,
+    find_spikes, find_step, fit_coupling, fit_sinusoid, measure_narrowband, remove_coupling,
+    remove_narrowband, remove_sinusoid, remove_spikes, remove_step, split_record, Coupling,
+    NarrowBand, SineFit, Spikes, SplitRecord, Step,
 };
 
 /// Most effects added to one channel.
@@ -92,6 +93,8 @@ pub enum Effect {
     Spikes(Spikes),
     /// A bias step, removed.
     Step(Step),
+    /// A line with a width (a wandering line), measured and removed.
+    Narrowband(NarrowBand),
 }
 
 impl Effect {
@@ -105,6 +108,7 @@ impl Effect {
             Effect::Drift(_) => "drift",
             Effect::Spikes(_) => "spikes",
             Effect::Step(_) => "step",
+            Effect::Narrowband(_) => "narrowband",
         }
     }
 }
@@ -131,7 +135,8 @@ pub struct LoopStep {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Rejected {
     pub kind: &'static str,
-    pub delta_bic: f64,
+    /// `None` for an excess no candidate could be formed for (the note says why).
+    pub delta_bic: Option<f64>,
     pub note: String,
 }
 
@@ -342,7 +347,7 @@ pub fn close_loop(
     let initial = figures(state.allan.as_ref(), state.spectrum.as_ref());
     let (base_allan, base_spectrum) = (state.allan.clone(), state.spectrum.clone());
     let p = cfg.confidence.probability().unwrap_or(0.682_689_492);
-    let mut steps = Vec::new();
+    let mut steps: Vec<LoopStep> = Vec::new();
     let mut rejected = Vec::new();
     while steps.len() < MAX_STEPS {
         let candidates = propose(&state, fs, aux, cfg, p);
@@ -351,7 +356,7 @@ pub fn close_loop(
             .filter(|c| !c.admissible())
             .map(|c| Rejected {
                 kind: c.effect.kind(),
-                delta_bic: c.delta_bic,
+                delta_bic: c.delta_bic.is_finite().then_some(c.delta_bic),
                 note: c
                     .barred()
                     .map_or(c.evidence.clone(), |b| format!("{}; {b}", c.evidence)),
@@ -384,6 +389,19 @@ pub fn close_loop(
             }
         }
         let after = figures(state.allan.as_ref(), state.spectrum.as_ref());
+        // A wandering line's tails, found once its core is gone, are the same line.
+        if let Effect::Narrowband(nb) = &best.effect {
+            if let Some(step) = steps.iter_mut().find(|s| {
+                matches!(&s.effect, Effect::Narrowband(p) if p.f_lo_hz <= nb.f_hi_hz && nb.f_lo_hz <= p.f_hi_hz)
+            }) {
+                if let Effect::Narrowband(prev) = &mut step.effect {
+                    merge_narrowband(prev, nb);
+                }
+                step.delta_bic += best.delta_bic;
+                step.after = after;
+                continue;
+            }
+        }
         steps.push(LoopStep {
             effect: best.effect,
             evidence: best.evidence,
@@ -474,26 +492,42 @@ fn propose(
     };
     let stochastic = state.stochastic.as_ref();
     let min_f = 4.0 * fs / state.psd.nperseg.max(1) as f64;
-    // Nothing above the fit band is searched: beyond it lies the sensor's filter edge, which the
-    // model does not describe.
-    let max_f = cfg.fit.max_freq_hz.unwrap_or(f64::INFINITY);
-    let excess = find_excess(
-        &state.psd,
-        |f| model_one_sided(spectrum, stochastic, f, fs),
-        min_f,
-        max_f,
-        LINE_P,
-    );
-    for e in excess.iter().take(3) {
-        let noise = model_one_sided(spectrum, stochastic, e.freq_hz, fs);
-        let Some(sine) = fit_sinusoid(y, fs, e.freq_hz, noise, p) else {
+    // Inside the fit band the model is the fit's; beyond it, up to the sensor filter's corner, the
+    // model times the filter's response, where only narrow lines are looked for. Nothing beyond
+    // the corner is searched: that is the filter's edge, which no effect may be claimed from.
+    let fit_edge = cfg.fit.max_freq_hz.unwrap_or(f64::INFINITY);
+    let lowpass = cfg.fit.lowpass;
+    let max_f = lowpass.map_or(fit_edge, |lp| lp.corner_hz.max(fit_edge));
+    let model = |f: f64| {
+        model_one_sided(spectrum, stochastic, f, fs) * lowpass.map_or(1.0, |lp| lp.power_gain(f))
+    };
+    let excess = find_excess(&state.psd, model, min_f, max_f, LINE_P);
+    let searched = state
+        .psd
+        .freq_hz
+        .iter()
+        .filter(|&&f| f >= min_f && f <= max_f)
+        .count();
+    let z = norm_isf((1.0 - p) / 2.0);
+    for e in excess.iter().take(4) {
+        let narrow = (e.f_hi_hz - e.f_lo_hz) <= NARROW_FRACTION * e.freq_hz;
+        let in_band = e.f_hi_hz <= fit_edge;
+        if !in_band && !narrow {
+            rejected_note(
+                &mut out,
+                e,
+                "broad excess beyond the fit band (the sensor filter's transition): not an effect",
+            );
             continue;
-        };
-        // A line puts its power A²/2 in the group; a resonance spreads power the sinusoid
-        // explains only a little of.
-        let line_share =
-            sine.amplitude * sine.amplitude / 2.0 / e.excess_power.max(f64::MIN_POSITIVE);
-        if line_share >= 0.5 {
+        }
+        let noise = model(e.freq_hz);
+        let sine = fit_sinusoid(y, fs, e.freq_hz, noise, p);
+        // A line puts its power A²/2 in the group; a resonance or a wandering line spreads power
+        // the sinusoid explains only a part of.
+        let line_share = sine.as_ref().map_or(0.0, |s| {
+            s.amplitude * s.amplitude / 2.0 / e.excess_power.max(f64::MIN_POSITIVE)
+        });
+        if let Some(sine) = sine.filter(|_| line_share >= 0.5) {
             let s = sine.clone();
             out.push(Candidate {
                 delta_bic: sine.delta_bic,
@@ -501,10 +535,36 @@ fn propose(
                 effect: Effect::Sinusoid(sine),
                 apply: Apply::Series(Box::new(move |y| remove_sinusoid(y, fs, &s))),
             });
-        } else if stochastic.is_none() {
+            continue;
+        }
+        if narrow {
+            if let Some(mut nb) =
+                measure_narrowband(&state.psd, &model, e.f_lo_hz, e.f_hi_hz, searched, z)
+            {
+                nb.coherent_share = line_share.min(1.0);
+                let clean = remove_narrowband(y, fs, &nb, &model, state.psd.nperseg);
+                out.push(Candidate {
+                    delta_bic: nb.delta_bic,
+                    evidence: format!(
+                        "{}; one coherent sinusoid explains {:.0} % of it",
+                        describe_excess(e),
+                        100.0 * line_share.min(1.0)
+                    ),
+                    effect: Effect::Narrowband(nb),
+                    apply: Apply::Series(Box::new(move |y| *y = clean.clone())),
+                });
+            }
+        }
+        if in_band && stochastic.is_none() {
             if let Some(c) = resonance_candidate(state, e, fs, cfg) {
                 out.push(c);
             }
+        } else if in_band && !narrow {
+            rejected_note(
+                &mut out,
+                e,
+                "resonance not tried: the model already holds a stochastic effect",
+            );
         }
     }
     if stochastic.is_none() {
@@ -513,6 +573,48 @@ fn propose(
         }
     }
     out
+}
+
+/// An excess group no wider than this fraction of its frequency is narrow (a line, possibly
+/// wandering: Q ≳ 20); wider ones are resonances.
+const NARROW_FRACTION: f64 = 0.05;
+
+/// `into` extended by `more`, a later pass over the same line (its tails): powers and their
+/// interval ends add, the band is the union, the centre the power-weighted mean.
+fn merge_narrowband(into: &mut NarrowBand, more: &NarrowBand) {
+    let total = into.power + more.power;
+    if total > 0.0 {
+        into.freq_hz = (into.freq_hz * into.power + more.freq_hz * more.power) / total;
+    }
+    into.width_hz = into.width_hz.max(more.width_hz);
+    into.f_lo_hz = into.f_lo_hz.min(more.f_lo_hz);
+    into.f_hi_hz = into.f_hi_hz.max(more.f_hi_hz);
+    into.power = total;
+    into.power_lo += more.power_lo;
+    into.power_hi += more.power_hi;
+    into.equivalent_amplitude = (2.0 * total).sqrt();
+    into.delta_bic += more.delta_bic;
+}
+
+/// Records an excess that no candidate could be formed for, so that the report lists it.
+fn rejected_note(out: &mut Vec<Candidate>, e: &Excess, why: &str) {
+    out.push(Candidate {
+        delta_bic: f64::INFINITY,
+        evidence: format!("{}; {why}", describe_excess(e)),
+        effect: Effect::Narrowband(NarrowBand {
+            freq_hz: e.freq_hz,
+            width_hz: e.width_hz,
+            f_lo_hz: e.f_lo_hz,
+            f_hi_hz: e.f_hi_hz,
+            power: e.excess_power,
+            power_lo: f64::NAN,
+            power_hi: f64::NAN,
+            equivalent_amplitude: (2.0 * e.excess_power).sqrt(),
+            coherent_share: f64::NAN,
+            delta_bic: f64::INFINITY,
+        }),
+        apply: Apply::Series(Box::new(|_| {})),
+    });
 }
 
 /// Raw p-value below which a slow effect's regression is repeated under the noise model refitted

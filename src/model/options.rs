@@ -2,7 +2,7 @@
 
 use crate::avar::Confidence;
 
-use super::{Criterion, Term};
+use super::{Criterion, LowPass, Term};
 
 /// How to fit. [`FitOptions::default`] allows all five terms, uses BIC, 1σ intervals, the default
 /// spectrum band and correlated Allan points.
@@ -31,6 +31,10 @@ pub struct FitOptions {
     /// Look for the sensor's low-pass roll-off before fitting and fit only inside the band where
     /// the recording follows the IEEE model ([`crate::model::detect_bandwidth`]).
     pub detect_bandwidth: bool,
+    /// The sensor's low-pass response, when one was detected (set with the band by
+    /// [`crate::model::Bandwidth::restrict`]): the residual loop's line search runs up to its
+    /// corner with the model multiplied by it, for narrow lines only.
+    pub lowpass: Option<LowPass>,
 }
 
 impl Default for FitOptions {
@@ -44,6 +48,7 @@ impl Default for FitOptions {
             correlated_points: true,
             min_tau_s: None,
             detect_bandwidth: true,
+            lowpass: None,
         }
     }
 }

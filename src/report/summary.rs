@@ -337,6 +337,16 @@ pub fn effect_line(e: &Effect) -> String {
             sig4(s.amplitude_lo),
             sig4(s.amplitude_hi)
         ),
+        Effect::Narrowband(nb) => format!(
+            "wandering line at {:.4} Hz, width {} Hz, rms {} [{}, {}] (power {}; a coherent sinusoid explains {:.0} %)",
+            nb.freq_hz,
+            sig4(nb.width_hz),
+            sig4(nb.power.sqrt()),
+            sig4(nb.power_lo.sqrt()),
+            sig4(nb.power_hi.sqrt()),
+            sig4(nb.power),
+            100.0 * nb.coherent_share
+        ),
         Effect::Resonance { f0_hz, q, sigma } => format!(
             "resonance at {f0_hz:.3} Hz, Q {q:.1}, σ {} [{}, {}]",
             sig4(sigma.value),

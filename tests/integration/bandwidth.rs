@@ -132,3 +132,51 @@ fn white_noise_allan_bias_matches_the_measured_one() {
         );
     }
 }
+
+/// An accelerometer behind a digital low-pass (order 2 at 25 Hz) with two lines that wander in
+/// frequency and amplitude, one strong (12 Hz, beyond the fit band's 2 % edge, inside the filter's
+/// corner) and one weak (5.3 Hz, ≈ 8× the floor): both are found as lines with a width, measured
+/// within 15 % of their power (the realised power of the 12 Hz line itself varies by 3.3 % (1σ)
+/// over 3000 s of 10-s amplitude wander; measured −8.7 % here, −3.5 % on a 10 000-s record of
+/// another seed: a small low bias remains, see the validation notes), and nothing else is added (no steps, no Gauss–Markov hump from
+/// the lines' Allan signature, no resonance from the filter).
+#[test]
+fn wandering_lines_are_found_as_lines_with_a_width() {
+    let lp = json!({ "corner_hz": 25.0, "order": 2 });
+    let wander = |f: f64, a: f64, tc: f64| json!({ "freq_wander_hz": f, "amplitude_wander": a, "wander_tc_s": tc });
+    let spec = json!({ "rate_hz": FS, "duration_s": 3000.0, "seed": 4243,
+        "channels": [{ "name": "a", "sensor": "accel", "noise": { "n": 1e-3, "b": 2e-4 }, "lowpass": lp,
+            "sinusoids": [
+                { "amplitude": 6e-3, "freq_hz": 12.0, "wander": wander(0.05, 0.2, 10.0) },
+                { "amplitude": 1.8e-3, "freq_hz": 5.3, "wander": wander(0.02, 0.1, 30.0) }] }] });
+    let spec: SimSpec = serde_json::from_value(spec).unwrap();
+    let y = simulate(&spec).unwrap().channels.remove(0).samples;
+    let o = close_loop(&y, FS, &[], &config(), None).expect("loop ran");
+    let kinds: Vec<&str> = o.report.steps.iter().map(|s| s.effect.kind()).collect();
+    assert_eq!(kinds, ["narrowband", "narrowband"], "{:?}", o.report.steps);
+    let filt = LowPassSpec {
+        corner_hz: 25.0,
+        order: 2,
+    };
+    for (f0, amp, rel) in [(12.0, 6e-3, 0.2), (5.3, 1.8e-3, 0.1)] {
+        let nb = o
+            .report
+            .steps
+            .iter()
+            .find_map(|s| match &s.effect {
+                imunoise::effects::Effect::Narrowband(nb) if (nb.freq_hz - f0).abs() < 0.1 => {
+                    Some(nb.clone())
+                }
+                _ => None,
+            })
+            .unwrap_or_else(|| panic!("no line at {f0} Hz"));
+        // Power of the continuous line after the sensor's filter: A²(1 + δa²)/2·|H|².
+        let truth: f64 = amp * amp * (1.0 + rel * rel) / 2.0 * lowpass_power_gain(&filt, FS, f0);
+        println!(
+            "{f0} Hz: power {:.4e} [{:.4e}, {:.4e}], truth {truth:.4e}, width {:.3} Hz",
+            nb.power, nb.power_lo, nb.power_hi, nb.width_hz
+        );
+        assert!((nb.power / truth - 1.0).abs() < 0.15, "{nb:?}");
+        assert!(nb.coherent_share < 0.5);
+    }
+}

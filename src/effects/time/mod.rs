@@ -1,6 +1,6 @@
 //! Time-domain effects the IEEE noise model lacks: linear coupling to an aux channel
 //! ([`coupling`]), spikes ([`spikes`]), bias steps ([`step`]), a sinusoid refined by least squares
-//! ([`sinusoid`]) and a split-record stationarity test ([`stationarity`]).
+//! ([`sinusoid`]), a line with a width ([`narrowband`]) and a split-record stationarity test ([`stationarity`]).
 //!
 //! Every detector is built for the question the residual loop asks of a *static* recording:
 //! "does this effect earn its place?", and the main danger is saying yes when it is absent. The
@@ -24,6 +24,7 @@
 //! recovery are in each module's tests (`cargo test --lib effects::time -- --nocapture`).
 
 pub mod coupling;
+pub mod narrowband;
 pub mod sinusoid;
 pub mod spikes;
 pub mod stationarity;
@@ -33,6 +34,7 @@ pub mod step;
 mod testutil;
 
 pub use coupling::{fit_coupling, remove_coupling, Coupling};
+pub use narrowband::{measure_narrowband, remove_narrowband, NarrowBand};
 pub use sinusoid::{fit_sinusoid, remove_sinusoid, SineFit};
 pub use spikes::{find_spikes, remove_spikes, Spikes};
 pub use stationarity::{split_record, SplitRecord};
