@@ -9,7 +9,7 @@
 
 use imunoise::avar::{compute, Confidence, Statistic, TauGrid};
 use imunoise::effects::{close_loop, LoopConfig};
-use imunoise::model::{combine, CoefUnit, Coefficients, FitOptions, Term};
+use imunoise::model::{combine, CoefUnit, Coefficients, FitOptions, FitWarning, Term};
 use imunoise::psd::WelchConfig;
 use imunoise::sim::{simulate, SimSpec};
 use serde_json::json;
@@ -42,6 +42,25 @@ struct Tally {
     covered: [usize; 3],
     kept: [usize; 3],
     warnings: usize,
+    warning_kinds: Vec<String>,
+}
+
+/// "(K disagrees 12, lack of fit (Allan) 3)".
+fn warning_summary(kinds: &[String]) -> String {
+    let mut sorted = kinds.to_vec();
+    sorted.sort();
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < sorted.len() {
+        let j = sorted[i..].iter().take_while(|k| **k == sorted[i]).count();
+        parts.push(format!("{} {j}", sorted[i]));
+        i += j;
+    }
+    if parts.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", parts.join(", "))
+    }
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -132,6 +151,17 @@ fn main() {
             .ok();
             let c = combine(o.allan.as_ref(), o.spectrum.as_ref(), dev.as_ref());
             tally.warnings += usize::from(!c.warnings.is_empty());
+            for w in &c.warnings {
+                tally.warning_kinds.push(match w {
+                    FitWarning::LackOfFit { domain, .. } => format!("lack of fit ({domain:?})"),
+                    FitWarning::DomainsDisagree { term, .. } => {
+                        format!("{} disagrees", term.symbol())
+                    }
+                    FitWarning::ContradictsReadOff { term, .. } => {
+                        format!("{} vs read-off", term.symbol())
+                    }
+                });
+            }
             for (i, (term, truth)) in truths.iter().enumerate() {
                 if let Some(e) = c.get(*term) {
                     tally.kept[i] += 1;
@@ -147,7 +177,7 @@ fn main() {
         effects.dedup();
         let [mut rn, mut rb, mut rk] = tally.ratio;
         println!(
-            "| {} | {} | {}{} | {} | {:.3} | {} | {:.3} | {} | {} | {:.3} | {} | {} |",
+            "| {} | {} | {}{} | {}{} | {:.3} | {} | {:.3} | {} | {} | {:.3} | {} | {} |",
             case.name,
             if case.filtered {
                 pct(tally.detected, tally.runs)
@@ -161,6 +191,7 @@ fn main() {
                 format!(" ({})", effects.join(", "))
             },
             tally.warnings,
+            warning_summary(&tally.warning_kinds),
             median(&mut rn),
             pct(tally.covered[0], tally.kept[0]),
             median(&mut rb),

@@ -25,8 +25,8 @@
 //!
 //! **Band rule.** Both fits then use only what the filter leaves within [`BAND_BIAS`] (2 %) of
 //! its unfiltered value: the spectrum up to the frequency where 1 − |H|² = 2 % (then checked on
-//! the data: while the IEEE model fitted below the edge leaves a deficit of z < −3 in the top 0.2
-//! decade, the edge moves down by 1/20 decade, and the Allan cut up by the same factor), and the Allan
+//! the data: while the IEEE model fitted below the edge leaves a deficit in the top 0.2 decade
+//! (a suffix of its top bands with Σz/√k < −3.5), the edge moves down by 1/20 decade, and the Allan cut up by the same factor), and the Allan
 //! variances from the shortest τ at and beyond which white noise through the filter reads at most
 //! 2 % low. The white-noise Allan bias at τ = mτ₀ is exact for sampled data:
 //! 1 − r(m) = (4m/fs)·∫₀^{fs/2} (1 − |H(f)|²)·sin⁴(πfm/fs)/(m²·sin²(πf/fs)) df, since the same
@@ -38,7 +38,7 @@ use serde::Serialize;
 use crate::psd::{BinnedPsd, Psd};
 
 use super::fit::{members, Mask, Problem};
-use super::psd_fit::spectrum_problem;
+use super::psd_fit::{filtered_basis, spectrum_problem, BandSamples};
 use super::{FitOptions, Term};
 
 /// Largest bias a band's filter may leave in the points the fits use (2 %).
@@ -225,7 +225,7 @@ pub fn detect_bandwidth(
     opts: &FitOptions,
 ) -> Option<Bandwidth> {
     let fs = psd.rate_hz;
-    let (full, x_full) = spectrum_problem(psd, binned, opts, None, None).ok()?;
+    let (full, x_full, samples) = spectrum_problem(psd, binned, opts, None).ok()?;
     if full.len() < 8 {
         return None;
     }
@@ -247,11 +247,13 @@ pub fn detect_bandwidth(
         return None;
     }
     let base = neg2ll(&plain, mask);
+    // The basis samples and the bands' correlation are computed once; each response only
+    // reweights the samples.
+    let samples: BandSamples = keep.iter().map(|&i| samples[i].clone()).collect();
     let try_filter = |lp: LowPass| -> f64 {
-        match spectrum_problem(psd, binned, opts, None, Some(&lp)) {
-            Ok((p, _)) => neg2ll(&p.subset(&keep), mask),
-            Err(_) => f64::INFINITY,
-        }
+        let mut p = plain.clone();
+        p.basis = filtered_basis(&samples, &lp);
+        neg2ll(&p, mask)
     };
     // Corners from 8 bands above the lowest fitted one to 2·fs.
     let f_lo = x[8.min(n - 1)];
@@ -363,23 +365,27 @@ pub fn detect_bandwidth(
     })
 }
 
-/// Deficit (sum of the top bands' z over √count) below which the edge is lowered.
-const EDGE_DEFICIT_Z: f64 = -3.0;
+/// Deficit (the most negative suffix sum of the top bands' z over √count) below which the edge
+/// is lowered.
+const EDGE_DEFICIT_Z: f64 = -3.5;
 
-/// The edge checked on the data: the unfiltered model fitted below `edge` must leave no deficit in
-/// its top 0.2 decade (the fitted response is a family shape and may be wrong near the corner);
+/// The edge checked on the data: the unfiltered model (the terms the criterion picks on that band)
+/// fitted below `edge` must leave no deficit in its top 0.2 decade (the fitted response is a family shape and may be wrong near the corner);
 /// while it does, the edge is lowered by 1/20 decade (at most a decade in all).
 fn checked_edge(psd: &Psd, binned: &BinnedPsd, opts: &FitOptions, mask: Mask, edge: f64) -> f64 {
     let mut edge = edge;
     for _ in 0..20 {
         let mut o = opts.clone();
         o.max_freq_hz = Some(edge);
-        let Ok((p, x)) = spectrum_problem(psd, binned, &o, None, None) else {
+        let Ok((p, x, _)) = spectrum_problem(psd, binned, &o, None) else {
             break;
         };
         if p.len() < 8 {
             break;
         }
+        // The terms the fit itself would choose on this band (quantisation's rise can hide a
+        // deficit from a model fixed on the whole band).
+        let mask = best_mask(&p, opts.mask(), opts).unwrap_or(mask);
         let fit = p.irls(mask);
         let (z, _, _) = p.likelihood(&fit);
         let floor = edge / 10f64.powf(0.2);
@@ -392,7 +398,14 @@ fn checked_edge(psd: &Psd, binned: &BinnedPsd, opts: &FitOptions, mask: Mask, ed
         if top.is_empty() {
             break;
         }
-        let stat = top.iter().sum::<f64>() / (top.len() as f64).sqrt();
+        // The most negative of the suffix sums (top band, top two, …) over √count: a deficit
+        // that grows towards the edge shows first in the last bands.
+        let mut stat = f64::INFINITY;
+        let mut sum = 0.0;
+        for (k, z) in top.iter().rev().enumerate() {
+            sum += z;
+            stat = stat.min(sum / ((k + 1) as f64).sqrt());
+        }
         if stat > EDGE_DEFICIT_Z {
             break;
         }

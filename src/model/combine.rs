@@ -197,7 +197,10 @@ pub fn combine(
                 let mut c = pick(e, domain);
                 // The other fit did not admit the term and bounds it below this estimate: the
                 // term may not be there at all.
-                if let Some(u) = upper(other).filter(|&u| u < e.lo) {
+                // The spectrum fit is blind to a ramp (its lowest bands are above the drift):
+                // its bound on R says nothing.
+                let blind = term == Term::RateRamp && domain == Domain::Allan;
+                if let Some(u) = upper(other).filter(|&u| u < e.lo && !blind) {
                     c.lo = 0.0;
                     c.hull = true;
                     let (allan, spectrum) = match domain {

@@ -28,7 +28,7 @@ use crate::psd::{BinnedPsd, Psd, Scaling};
 use super::band_correlation::band_correlation;
 use super::bandwidth::LowPass;
 use super::correlation::Correlation;
-use super::fit::{Problem, EFFECT, TERMS};
+use super::fit::{Problem, BASE, EFFECT, TERMS};
 use super::result::Domain;
 use super::select::select_and_fit;
 use super::{EffectShape, FitError, FitOptions, NoiseFit, Term};
@@ -81,7 +81,7 @@ pub fn fit_psd_with(
     opts: &FitOptions,
     effect: Option<&dyn EffectShape>,
 ) -> Result<NoiseFit, FitError> {
-    let (problem, x) = spectrum_problem(psd, binned, opts, effect, None)?;
+    let (problem, x, _) = spectrum_problem(psd, binned, opts, effect)?;
     let forced = if effect.is_some() { 1 << EFFECT } else { 0 };
     select_and_fit(
         &problem,
@@ -94,17 +94,19 @@ pub fn fit_psd_with(
     )
 }
 
-/// The spectrum fit's problem (and the band centres of its points): the bands of `binned` inside
-/// the fit band of `opts`, each term's sampled PSD averaged over the band's bins. With `response`
-/// every column but quantisation's is multiplied by the filter's power gain |H(f)|²: the sensor's
-/// filter acts on the rate before the output is rounded to its quantisation step.
+/// Per band of a spectrum problem: the frequencies its basis is averaged over and each base
+/// term's sampled PSD there (leakage included), kept so that a filter response can reweight the
+/// basis without recomputing it ([`filtered_basis`]).
+pub(crate) type BandSamples = Vec<Vec<(f64, [f64; BASE])>>;
+
+/// The spectrum fit's problem, the band centres of its points and the basis samples: the bands of
+/// `binned` inside the fit band of `opts`, each term's sampled PSD averaged over the band's bins.
 pub(crate) fn spectrum_problem(
     psd: &Psd,
     binned: &BinnedPsd,
     opts: &FitOptions,
     effect: Option<&dyn EffectShape>,
-    response: Option<&LowPass>,
-) -> Result<(Problem, Vec<f64>), FitError> {
+) -> Result<(Problem, Vec<f64>, BandSamples), FitError> {
     if psd.scaling != Scaling::Density {
         return Err(FitError::NotDensity);
     }
@@ -134,7 +136,7 @@ pub(crate) fn spectrum_problem(
         })
         .collect();
     let spread2 = leakage_spread2(psd);
-    let basis = keep
+    let samples: BandSamples = keep
         .iter()
         .map(|&b| {
             let bins = binned.bins[b].max(1);
@@ -142,40 +144,35 @@ pub(crate) fn spectrum_problem(
             // Bins of the band the basis is averaged over: all of them up to 64, else 64 evenly
             // spaced (a midpoint rule over sub-blocks of a band at most 1/10 decade wide: exact
             // to ~1e-6 for these smooth shapes, and a long record's top bands hold 10⁵ bins).
-            let samples = bins.min(64);
-            let at: Vec<f64> = (0..samples)
+            let count = bins.min(64);
+            (0..count)
                 .map(|k| {
-                    let i = ((f64::from(k) + 0.5) * f64::from(bins) / f64::from(samples)).floor();
-                    first + i * df
+                    let i = ((f64::from(k) + 0.5) * f64::from(bins) / f64::from(count)).floor();
+                    let f = first + i * df;
+                    let values = std::array::from_fn(|j| {
+                        let term = Term::ALL[j];
+                        // Second-order leakage of S ∝ f^−p: ½S″·σ² = S·p(p+1)σ²/(2f²).
+                        let p = -f64::from(term.alpha());
+                        let leak = 1.0 + p * (p + 1.0) * spread2 / (2.0 * f * f);
+                        term.psd_sampled_unit(f, psd.rate_hz) * leak
+                    });
+                    (f, values)
                 })
-                .collect();
-            let gain: Vec<f64> = at
-                .iter()
-                .map(|&f| response.map_or(1.0, |h| h.power_gain(f)))
-                .collect();
+                .collect()
+        })
+        .collect();
+    let basis = samples
+        .iter()
+        .map(|band| {
+            let mean = |v: &dyn Fn(&(f64, [f64; BASE])) -> f64| {
+                band.iter().map(v).sum::<f64>() / band.len().max(1) as f64
+            };
             std::array::from_fn(|j| {
                 if j == EFFECT {
-                    return effect.map_or(0.0, |e| {
-                        at.iter()
-                            .zip(&gain)
-                            .map(|(&f, g)| g * e.psd_unit(f, psd.rate_hz))
-                            .sum::<f64>()
-                            / at.len() as f64
-                    });
+                    effect.map_or(0.0, |e| mean(&|s| e.psd_unit(s.0, psd.rate_hz)))
+                } else {
+                    mean(&|s| s.1[j])
                 }
-                let term = Term::ALL[j];
-                // Second-order leakage of S ∝ f^−p: ½S″·σ² = S·p(p+1)σ²/(2f²).
-                let p = -f64::from(term.alpha());
-                let filtered = term != Term::Quantization;
-                at.iter()
-                    .zip(&gain)
-                    .map(|(&f, &g)| {
-                        let leak = 1.0 + p * (p + 1.0) * spread2 / (2.0 * f * f);
-                        let g = if filtered { g } else { 1.0 };
-                        term.psd_sampled_unit(f, psd.rate_hz) * leak * g
-                    })
-                    .sum::<f64>()
-                    / at.len() as f64
             })
         })
         .collect();
@@ -187,5 +184,25 @@ pub(crate) fn spectrum_problem(
         cross: Vec::new(),
     };
     let x: Vec<f64> = keep.iter().map(|&b| binned.freq_hz[b]).collect();
-    Ok((problem, x))
+    Ok((problem, x, samples))
+}
+
+/// The base terms' basis of `samples` with every column but quantisation's multiplied by the
+/// filter's power gain |H(f)|²: the sensor's filter acts on the rate before the output is rounded
+/// to its quantisation step. The effect column is 0.
+pub(crate) fn filtered_basis(samples: &BandSamples, response: &LowPass) -> Vec<[f64; TERMS]> {
+    let q = Term::Quantization.index();
+    samples
+        .iter()
+        .map(|band| {
+            let mut out = [0.0; TERMS];
+            for (f, v) in band {
+                let g = response.power_gain(*f);
+                for j in 0..BASE {
+                    out[j] += if j == q { v[j] } else { g * v[j] };
+                }
+            }
+            out.map(|x| x / band.len().max(1) as f64)
+        })
+        .collect()
 }
