@@ -97,7 +97,10 @@ pub fn fit_psd_with(
 /// Per band of a spectrum problem: the frequencies its basis is averaged over and each base
 /// term's sampled PSD there (leakage included), kept so that a filter response can reweight the
 /// basis without recomputing it ([`filtered_basis`]).
-pub(crate) type BandSamples = Vec<Vec<(f64, [f64; BASE])>>;
+pub(crate) type BandSamples = Vec<Vec<BasisSample>>;
+
+/// A frequency and each base term's sampled PSD there.
+pub(crate) type BasisSample = (f64, [f64; BASE]);
 
 /// The spectrum fit's problem, the band centres of its points and the basis samples: the bands of
 /// `binned` inside the fit band of `opts`, each term's sampled PSD averaged over the band's bins.
@@ -164,7 +167,7 @@ pub(crate) fn spectrum_problem(
     let basis = samples
         .iter()
         .map(|band| {
-            let mean = |v: &dyn Fn(&(f64, [f64; BASE])) -> f64| {
+            let mean = |v: &dyn Fn(&BasisSample) -> f64| {
                 band.iter().map(v).sum::<f64>() / band.len().max(1) as f64
             };
             std::array::from_fn(|j| {
