@@ -275,12 +275,20 @@ fn cases() -> Vec<Case> {
         _ => None,
     };
     let resonance: Extract = |e, t| match e {
-        Effect::Resonance { f0_hz, q, sigma } => {
+        Effect::Resonance {
+            f0_hz,
+            q,
+            sigma,
+            f0_lo,
+            f0_hi,
+            q_lo,
+            q_hi,
+        } => {
             let r = &t.resonances[0];
             Some(vec![
                 Param::new("σ", sigma.value, r.sigma, Some((sigma.lo, sigma.hi))),
-                Param::new("f0", *f0_hz, r.f0_hz, None),
-                Param::new("q", *q, r.q, None),
+                Param::new("f0", *f0_hz, r.f0_hz, Some((*f0_lo, *f0_hi))),
+                Param::new("q", *q, r.q, Some((*q_lo, *q_hi))),
             ])
         }
         _ => None,

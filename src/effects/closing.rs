@@ -79,7 +79,13 @@ pub enum Effect {
     /// and standard deviation `sigma` (interval from the spectrum fit).
     Resonance {
         f0_hz: f64,
+        /// Profile-likelihood interval of f₀.
+        f0_lo: f64,
+        f0_hi: f64,
         q: f64,
+        /// Profile-likelihood interval of Q.
+        q_lo: f64,
+        q_hi: f64,
         sigma: EffectEstimate,
     },
     /// A first-order Gauss–Markov process: correlation time and standard deviation (interval
@@ -556,7 +562,7 @@ fn propose(
             }
         }
         if in_band && stochastic.is_none() {
-            if let Some(c) = resonance_candidate(state, e, fs, cfg) {
+            if let Some(c) = resonance_candidate(state, e, fs, cfg, p) {
                 out.push(c);
             }
         } else if in_band && !narrow {
@@ -755,22 +761,126 @@ fn stochastic_delta(
     Some((ds, da))
 }
 
-fn resonance_candidate(state: &State, e: &Excess, fs: f64, cfg: &LoopConfig) -> Option<Candidate> {
-    let q0 = (e.freq_hz / e.width_hz.max(state.psd.bin_width_hz())).clamp(0.5, 1e4);
-    type Profiled = (f64, f64, Resonance, Option<NoiseFit>);
-    let mut best: Option<Profiled> = None;
-    for q in [q0 / 2.0, q0 / 1.4, q0, q0 * 1.4, q0 * 2.0] {
-        let shape = Resonance::new(e.freq_hz, q, fs);
-        let spectrum = fit_psd_with(&state.psd, &state.binned, &cfg.fit, Some(&shape)).ok();
-        let s = spectrum.as_ref().map_or(f64::INFINITY, score);
-        if best.as_ref().is_none_or(|b| s < b.0) {
-            best = Some((s, q, shape, spectrum));
+/// Golden-section minimum of `g` on [a, b] (`iters` steps): (x, g(x)).
+fn golden(g: &mut dyn FnMut(f64) -> f64, mut a: f64, mut b: f64, iters: usize) -> (f64, f64) {
+    let r = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut c, mut d) = (b - r * (b - a), a + r * (b - a));
+    let (mut gc, mut gd) = (g(c), g(d));
+    for _ in 0..iters {
+        if gc <= gd {
+            (b, d, gd) = (d, c, gc);
+            c = b - r * (b - a);
+            gc = g(c);
+        } else {
+            (a, c, gc) = (c, d, gd);
+            d = a + r * (b - a);
+            gd = g(d);
         }
     }
-    let (_, q, shape, spectrum) = best?;
+    if gc <= gd {
+        (c, gc)
+    } else {
+        (d, gd)
+    }
+}
+
+/// The range of `xs` whose score lies within `threshold` of the best (a profile interval), and
+/// the conditional effect intervals of those points joined.
+fn profile_range(
+    points: &[(f64, f64, Option<EffectEstimate>)],
+    best: f64,
+    threshold: f64,
+) -> (f64, f64, Option<(f64, f64)>) {
+    let inside: Vec<&(f64, f64, Option<EffectEstimate>)> =
+        points.iter().filter(|p| p.1 <= best + threshold).collect();
+    let lo = inside.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
+    let hi = inside.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
+    let sigma = inside
+        .iter()
+        .filter_map(|p| p.2)
+        .fold(None, |acc: Option<(f64, f64)>, e| {
+            Some(acc.map_or((e.lo, e.hi), |(l, h)| (l.min(e.lo), h.max(e.hi))))
+        });
+    (lo, hi, sigma)
+}
+
+/// A resonance at an excess too wide to be a line. Q is optimised (golden section on log Q
+/// within ×/÷ 8 of the excess's f/width), then f₀ (within ± one half-power width), then Q again;
+/// f₀ and Q get profile-likelihood intervals (the spectrum score within the χ²₁ quantile of the
+/// confidence, times the fit's dispersion, of its best: the score is −2 ln L plus a constant
+/// penalty), and σ the union of its conditional intervals over both profiles.
+fn resonance_candidate(
+    state: &State,
+    e: &Excess,
+    fs: f64,
+    cfg: &LoopConfig,
+    p: f64,
+) -> Option<Candidate> {
+    let nyquist = fs / 2.0;
+    let q0 = (e.freq_hz / e.width_hz.max(state.psd.bin_width_hz())).clamp(0.5, 1e4);
+    let fit_at = |f0: f64, q: f64| -> (f64, Option<NoiseFit>) {
+        if !(f0 > 0.0 && f0 < nyquist) {
+            return (f64::INFINITY, None);
+        }
+        let shape = Resonance::new(f0, q, fs);
+        let spectrum = fit_psd_with(&state.psd, &state.binned, &cfg.fit, Some(&shape)).ok();
+        (spectrum.as_ref().map_or(f64::INFINITY, score), spectrum)
+    };
+    let mut q_points: Vec<(f64, f64, Option<EffectEstimate>)> = Vec::new();
+    let mut f_points: Vec<(f64, f64, Option<EffectEstimate>)> = Vec::new();
+    let (lq_lo, lq_hi) = ((q0 / 8.0).max(0.5).ln(), (q0 * 8.0).min(1e4).ln());
+    let mut f0 = e.freq_hz;
+    let by_q = |f0: f64, pts: &mut Vec<(f64, f64, Option<EffectEstimate>)>| {
+        golden(
+            &mut |lq: f64| {
+                let (sc, fit) = fit_at(f0, lq.exp());
+                pts.push((lq.exp(), sc, fit.and_then(|f| f.effect)));
+                sc
+            },
+            lq_lo,
+            lq_hi,
+            18,
+        )
+    };
+    let (lq, _) = by_q(f0, &mut Vec::new());
+    let mut q = lq.exp();
+    let half_width = f0 / q;
+    (f0, _) = golden(
+        &mut |f: f64| {
+            let (sc, fit) = fit_at(f, q);
+            f_points.push((f, sc, fit.and_then(|f| f.effect)));
+            sc
+        },
+        f0 - half_width,
+        f0 + half_width,
+        16,
+    );
+    let (lq, best) = by_q(f0, &mut q_points);
+    q = lq.exp();
+    // Profile grids around the optimum, for the intervals.
+    for k in -12..=12 {
+        let qk = q * 10f64.powf(f64::from(k) / 12.0);
+        let (sc, fit) = fit_at(f0, qk);
+        q_points.push((qk, sc, fit.and_then(|f| f.effect)));
+        let fk = f0 + f64::from(k) / 12.0 * (f0 / q);
+        let (sc, fit) = fit_at(fk, q);
+        f_points.push((fk, sc, fit.and_then(|f| f.effect)));
+    }
+    let (score_best, spectrum) = fit_at(f0, q);
+    let best = best.min(score_best);
+    let shape = Resonance::new(f0, q, fs);
     let allan = fit_avar_with(&state.dev, &cfg.fit, Some(&shape)).ok();
     let (ds, da) = stochastic_delta(state, allan.as_ref(), spectrum.as_ref(), 2.0)?;
-    let sigma = spectrum.as_ref()?.effect?;
+    let mut sigma = spectrum.as_ref()?.effect?;
+    let dispersion = spectrum
+        .as_ref()
+        .map_or(1.0, |f| f.lack_of_fit.inflation.powi(2));
+    let threshold = norm_isf((1.0 - p) / 2.0).powi(2) * dispersion;
+    let (q_lo, q_hi, sq) = profile_range(&q_points, best, threshold);
+    let (f0_lo, f0_hi, sf) = profile_range(&f_points, best, threshold);
+    for (lo, hi) in [sq, sf].into_iter().flatten() {
+        (sigma.lo, sigma.hi) = (sigma.lo.min(lo), sigma.hi.max(hi));
+    }
     Some(Candidate {
         delta_bic: if ds < 0.0 { ds + da } else { ds.max(0.0) + da.max(0.0) },
         evidence: format!(
@@ -779,8 +889,12 @@ fn resonance_candidate(state: &State, e: &Excess, fs: f64, cfg: &LoopConfig) -> 
             e.width_hz
         ),
         effect: Effect::Resonance {
-            f0_hz: e.freq_hz,
+            f0_hz: f0,
+            f0_lo: f0_lo.min(f0),
+            f0_hi: f0_hi.max(f0),
             q,
+            q_lo: q_lo.min(q),
+            q_hi: q_hi.max(q),
             sigma,
         },
         apply: Apply::Model(Box::new((Stochastic::Resonance(shape), allan, spectrum))),

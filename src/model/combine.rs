@@ -13,9 +13,16 @@
 //! not overlap: then the estimates disagree (one domain is missing an effect or sees a filter the
 //! other does not), the value comes from the term's home domain (B, K, R from the Allan variance,
 //! whose long τ reach below the spectrum's lowest band; Q from the spectrum; N from the more
-//! precise), the combined interval is the hull of both, and a `domains_disagree` warning names the
-//! term and the ratio. A term kept in one domain only comes from that domain (the rate
+//! precise) and the combined interval is the hull of both; a `domains_disagree` warning names the
+//! term and the ratio where the difference is significant (|Δ ln| over the combined standard
+//! error beyond 3.29, p < 0.001): two right 1σ intervals miss each other in ≈ 16 % of cases. A term kept in one domain only comes from that domain (the rate
 //! ramp is invisible to the spectrum; quantisation to the Allan variance at long τ).
+//!
+//! A term a fit could not tell from a neighbour (a model with the neighbour in its place scored
+//! within 6 BIC units: [`TermEstimate::ambiguous_with`]) yields to the other fit's estimate when
+//! that one is clear, and a disagreement involving it widens the interval without a warning; kept
+//! by one fit only, ambiguous there and bounded below its interval by the other, it has no
+//! combined value (neither fit determines it).
 //!
 //! **Read-offs.** What an engineer reads off the Allan deviation by hand (IEEE Std 952 Annex C):
 //! N = σ(1 s), B = min σ / 0.664, K = σ(3 s), with the measured points' intervals. Each is an
@@ -43,6 +50,9 @@ pub struct CombinedTerm {
     pub source: Domain,
     /// The interval is the hull of both fits' intervals (they disagree).
     pub hull: bool,
+    /// The fit it comes from could not tell this term from a neighbour (see
+    /// [`TermEstimate::ambiguous_with`]) and the other fit did not determine it either.
+    pub ambiguous_with: Option<Term>,
 }
 
 /// A hand read-off of the Allan deviation curve.
@@ -149,6 +159,30 @@ impl Combined {
     }
 }
 
+/// |z| of a difference between the fits (in log value, over the root sum of squares of their
+/// standard errors) beyond which a disagreement is named: p < 0.001 two-sided. Two right 1σ
+/// intervals miss each other in ≈ 16 % of cases, so non-overlap alone (which still widens the
+/// combined interval to the hull) would warn on half of all clean records.
+const DISAGREE_Z: f64 = 3.29;
+
+/// The confidence of the fits' intervals (1σ when neither says).
+fn confidence(a: Option<&NoiseFit>, s: Option<&NoiseFit>) -> f64 {
+    a.or(s).map_or(crate::avar::ONE_SIGMA, |f| f.confidence)
+}
+
+/// Standard error of ln(value) from an interval at two-sided probability `p`.
+fn log_sd(e: &TermEstimate, p: f64) -> f64 {
+    let z = super::interval::normal_quantile((1.0 + p) / 2.0);
+    if e.lo > 0.0 && e.hi > e.lo && z > 0.0 {
+        (e.hi / e.lo).ln() / (2.0 * z)
+    } else if e.value > 0.0 && e.hi > e.value {
+        // An interval reaching 0: the upper half only.
+        (e.hi / e.value).ln() / z
+    } else {
+        f64::INFINITY
+    }
+}
+
 fn relative_width(e: &TermEstimate) -> f64 {
     if e.value > 0.0 {
         (e.hi - e.lo) / e.value
@@ -178,6 +212,7 @@ pub fn combine(
             });
         }
     }
+    let (allan_fit, spectrum_fit) = (allan, spectrum);
     let mut terms = Vec::new();
     for term in Term::ALL {
         let a = allan.and_then(|f| f.get(term));
@@ -195,6 +230,12 @@ pub fn combine(
                     (Domain::Spectrum, allan)
                 };
                 let mut c = pick(e, domain);
+                let bound = upper(other).filter(|&u| u < e.lo);
+                if e.ambiguous_with.is_some() && bound.is_some() && term != Term::RateRamp {
+                    // Neither fit determines it: this one could not tell it from a neighbour,
+                    // the other bounds it below this estimate. No answer beats a wrong one.
+                    continue;
+                }
                 // The other fit did not admit the term and bounds it below this estimate: the
                 // term may not be there at all.
                 // The spectrum fit is blind to a ramp (its lowest bands are above the drift):
@@ -207,11 +248,15 @@ pub fn combine(
                         Domain::Allan => (e.value, u),
                         Domain::Spectrum => (u, e.value),
                     };
-                    warnings.push(FitWarning::DomainsDisagree {
-                        term,
-                        allan,
-                        spectrum,
-                    });
+                    // Named only where the bound lies below the estimate's 99.9 % lower end.
+                    let s_e = log_sd(e, confidence(allan_fit, spectrum_fit));
+                    if e.ambiguous_with.is_none() && u < e.value * (-DISAGREE_Z * s_e).exp() {
+                        warnings.push(FitWarning::DomainsDisagree {
+                            term,
+                            allan,
+                            spectrum,
+                        });
+                    }
                 }
                 c
             }
@@ -220,9 +265,12 @@ pub fn combine(
                     complete(allan, spectrum, term),
                     complete(spectrum, allan, term),
                 );
-                let prefer_allan = match (a_whole, s_whole) {
-                    (true, false) => true,
-                    (false, true) => false,
+                let (a_clear, s_clear) = (a.ambiguous_with.is_none(), s.ambiguous_with.is_none());
+                let prefer_allan = match (a_clear, s_clear, a_whole, s_whole) {
+                    (true, false, ..) => true,
+                    (false, true, ..) => false,
+                    (.., true, false) => true,
+                    (.., false, true) => false,
                     _ => relative_width(a) <= relative_width(s),
                 };
                 let (best, domain) = if prefer_allan {
@@ -244,11 +292,16 @@ pub fn combine(
                     c.lo = a.lo.min(s.lo);
                     c.hi = a.hi.max(s.hi);
                     c.hull = true;
-                    warnings.push(FitWarning::DomainsDisagree {
-                        term,
-                        allan: a.value,
-                        spectrum: s.value,
-                    });
+                    let p = confidence(allan_fit, spectrum_fit);
+                    let d = (a.value / s.value).ln().abs()
+                        / (log_sd(a, p).powi(2) + log_sd(s, p).powi(2)).sqrt();
+                    if d > DISAGREE_Z && a_clear && s_clear {
+                        warnings.push(FitWarning::DomainsDisagree {
+                            term,
+                            allan: a.value,
+                            spectrum: s.value,
+                        });
+                    }
                 }
                 c
             }
@@ -305,6 +358,7 @@ fn pick(e: &TermEstimate, source: Domain) -> CombinedTerm {
         hi: e.hi,
         source,
         hull: false,
+        ambiguous_with: e.ambiguous_with,
     }
 }
 
@@ -417,4 +471,126 @@ fn allan_bound(dev: &Deviations, term: Term) -> Option<(f64, f64)> {
         dev.tau_s[i],
         dev.variance[i] * nu / chi2_quantile(0.005, nu),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{Criterion, LackOfFit, UpperLimit};
+
+    fn est(term: Term, value: f64, rel: f64) -> TermEstimate {
+        TermEstimate {
+            term,
+            value,
+            lo: value * (1.0 - rel),
+            hi: value * (1.0 + rel),
+            edf: 100.0,
+            ambiguous_with: None,
+        }
+    }
+
+    fn fit(domain: Domain, estimates: Vec<TermEstimate>, upper: Vec<(Term, f64)>) -> NoiseFit {
+        NoiseFit {
+            domain,
+            estimates,
+            upper_limits: upper
+                .into_iter()
+                .map(|(term, upper)| UpperLimit { term, upper })
+                .collect(),
+            chi2: 10.0,
+            dof: 10,
+            lack_of_fit: LackOfFit {
+                chi2_per_dof: 1.0,
+                p_value: 0.5,
+                inflation: 1.0,
+                significant: false,
+                worst_from: 1.0,
+                worst_to: 1.0,
+                worst_share: 0.1,
+            },
+            effect: None,
+            criterion: Criterion::Bic,
+            confidence: crate::avar::ONE_SIGMA,
+            candidates: Vec::new(),
+            points: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn the_more_precise_estimate_wins_and_a_small_miss_widens_without_a_warning() {
+        let a = fit(
+            Domain::Allan,
+            vec![est(Term::RandomWalk, 1.00, 0.02)],
+            vec![],
+        );
+        let s = fit(
+            Domain::Spectrum,
+            vec![est(Term::RandomWalk, 1.03, 0.005)],
+            vec![],
+        );
+        let c = combine(Some(&a), Some(&s), None);
+        let n = c.get(Term::RandomWalk).unwrap();
+        assert_eq!(n.source, Domain::Spectrum);
+        assert_eq!(n.value, 1.03);
+        // 1σ intervals miss (1.02 < 1.02485) but the difference is 1.4σ: hull, no warning.
+        assert!(n.hull && n.lo == 0.98 && c.warnings.is_empty(), "{c:?}");
+    }
+
+    #[test]
+    fn a_significant_miss_is_named_and_b_comes_from_the_allan_fit() {
+        let a = fit(
+            Domain::Allan,
+            vec![est(Term::BiasInstability, 1.0, 0.05)],
+            vec![],
+        );
+        let s = fit(
+            Domain::Spectrum,
+            vec![est(Term::BiasInstability, 1.5, 0.02)],
+            vec![],
+        );
+        let c = combine(Some(&a), Some(&s), None);
+        let b = c.get(Term::BiasInstability).unwrap();
+        assert_eq!((b.source, b.value), (Domain::Allan, 1.0));
+        assert!(b.hull && (b.hi - 1.53).abs() < 1e-12);
+        assert!(matches!(
+            c.warnings.as_slice(),
+            [FitWarning::DomainsDisagree {
+                term: Term::BiasInstability,
+                ..
+            }]
+        ));
+    }
+
+    #[test]
+    fn a_fit_missing_a_neighbour_yields_and_an_ambiguous_term_has_no_answer() {
+        // The spectrum kept B without K, the Allan fit both: B from the Allan fit although the
+        // spectrum's interval is narrower.
+        let a = fit(
+            Domain::Allan,
+            vec![
+                est(Term::BiasInstability, 1.0, 0.1),
+                est(Term::RateRandomWalk, 2.0, 0.2),
+            ],
+            vec![],
+        );
+        let mut k = est(Term::RateRandomWalk, 50.0, 0.1);
+        k.ambiguous_with = Some(Term::BiasInstability);
+        let s = fit(
+            Domain::Spectrum,
+            vec![est(Term::BiasInstability, 1.05, 0.02)],
+            vec![],
+        );
+        let c = combine(Some(&a), Some(&s), None);
+        assert_eq!(c.get(Term::BiasInstability).unwrap().source, Domain::Allan);
+        // A K only the spectrum kept, ambiguous with B, bounded far lower by the Allan fit.
+        let a = fit(
+            Domain::Allan,
+            vec![est(Term::BiasInstability, 1.0, 0.1)],
+            vec![(Term::RateRandomWalk, 3.0)],
+        );
+        let s = fit(Domain::Spectrum, vec![k], vec![]);
+        let c = combine(Some(&a), Some(&s), None);
+        assert!(c.get(Term::RateRandomWalk).is_none(), "{c:?}");
+        assert!(c.warnings.is_empty());
+    }
 }

@@ -87,6 +87,6 @@ pub use result::{
     Candidate, Criterion, Domain, EffectEstimate, FitPoint, LackOfFit, NoiseFit, TermEstimate,
     UpperLimit,
 };
-pub use select::LACK_OF_FIT_P;
+pub use select::{AMBIGUITY_BIC, LACK_OF_FIT_P};
 pub use terms::{Coefficients, GaussMarkov, Sinusoid, Term, FLICKER_PLATEAU};
 pub use units::{CoefUnit, Sensor, UnitError};

@@ -56,6 +56,11 @@ pub struct TermEstimate {
     pub hi: f64,
     /// Satterthwaite degrees of freedom of the squared coefficient (2ĉ²/Var ĉ).
     pub edf: f64,
+    /// A neighbouring term (adjacent slope) that the data could not tell from this one: the model
+    /// with that term in this one's place scored within [`crate::model::AMBIGUITY_BIC`] of the
+    /// chosen one. The value is then not determined by this fit (a spectrum whose lowest band lies
+    /// above K's regime trades B for K).
+    pub ambiguous_with: Option<Term>,
 }
 
 impl TermEstimate {

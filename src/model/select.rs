@@ -128,6 +128,7 @@ pub(crate) fn select_and_fit(
                 lo,
                 hi,
                 edf,
+                ambiguous_with: ambiguous_with(j, mask, allowed, &fits),
             }
         })
         .collect();
@@ -176,6 +177,31 @@ pub(crate) fn select_and_fit(
         candidates: fits.into_iter().map(|(c, _)| c).collect(),
         points,
     })
+}
+
+/// BIC difference within which a model with a neighbour in a term's place is as good: "positive"
+/// evidence at most on the Kass–Raftery scale.
+pub const AMBIGUITY_BIC: f64 = 6.0;
+
+/// The neighbour (adjacent slope, not in `mask`, allowed) whose swap for base term `j` scores
+/// within [`AMBIGUITY_BIC`] of the best eligible candidate, if any.
+fn ambiguous_with(j: usize, mask: Mask, allowed: Mask, fits: &[(Candidate, Mask)]) -> Option<Term> {
+    let best = fits
+        .iter()
+        .filter(|(c, _)| c.proper && c.score.is_finite())
+        .map(|(c, _)| c.score)
+        .fold(f64::INFINITY, f64::min);
+    [j.checked_sub(1), Some(j + 1)]
+        .into_iter()
+        .flatten()
+        .filter(|&u| u < BASE && mask & (1 << u) == 0 && allowed & (1 << u) != 0)
+        .find(|&u| {
+            let swapped = (mask & !(1 << j)) | (1 << u);
+            fits.iter().any(|(c, m)| {
+                *m == swapped && c.proper && c.score.is_finite() && c.score - best < AMBIGUITY_BIC
+            })
+        })
+        .map(|u| Term::ALL[u])
 }
 
 fn scale(mut cov: Vec<Vec<f64>>, k: f64) -> Vec<Vec<f64>> {

@@ -22,7 +22,9 @@ fn stochastic(a: &ChannelAnalysis, fs: f64) -> Option<(Box<dyn EffectShape>, f64
             sigma.value,
             format!("Gauss–Markov Tc = {tc_s:.3} s"),
         )),
-        Effect::Resonance { f0_hz, q, sigma } => Some((
+        Effect::Resonance {
+            f0_hz, q, sigma, ..
+        } => Some((
             Box::new(Resonance::new(*f0_hz, *q, fs)) as Box<dyn EffectShape>,
             sigma.value,
             format!("resonance {f0_hz:.3} Hz, Q = {q:.1}"),

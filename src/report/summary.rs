@@ -241,10 +241,17 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
                 sig4(u1.from_si(t.lo)),
                 sig4(u1.from_si(t.hi)),
                 if t.hull { " (both fits)" } else { "" },
-                match t.source {
-                    crate::model::Domain::Allan => "AV",
-                    crate::model::Domain::Spectrum => "PSD",
-                },
+                format!(
+                    "{}{}",
+                    match t.source {
+                        crate::model::Domain::Allan => "AV",
+                        crate::model::Domain::Spectrum => "PSD",
+                    },
+                    t.ambiguous_with.map_or(String::new(), |u| format!(
+                        " (not told from {})",
+                        u.symbol()
+                    ))
+                ),
                 read.map_or("–".into(), |r| format!(
                     "{} at τ = {} s",
                     sig4(u1.from_si(r.value)),
@@ -347,8 +354,16 @@ pub fn effect_line(e: &Effect) -> String {
             sig4(nb.power),
             100.0 * nb.coherent_share
         ),
-        Effect::Resonance { f0_hz, q, sigma } => format!(
-            "resonance at {f0_hz:.3} Hz, Q {q:.1}, σ {} [{}, {}]",
+        Effect::Resonance {
+            f0_hz,
+            f0_lo,
+            f0_hi,
+            q,
+            q_lo,
+            q_hi,
+            sigma,
+        } => format!(
+            "resonance at {f0_hz:.3} Hz [{f0_lo:.3}, {f0_hi:.3}], Q {q:.1} [{q_lo:.1}, {q_hi:.1}], σ {} [{}, {}]",
             sig4(sigma.value),
             sig4(sigma.lo),
             sig4(sigma.hi)

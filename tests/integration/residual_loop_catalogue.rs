@@ -167,9 +167,22 @@ fn base_terms_restored(o: &LoopOutcome) {
 }
 
 fn check_resonance(o: &LoopOutcome, f0: f64, q_true: f64, sigma_true: f64) {
-    let Effect::Resonance { f0_hz, q, sigma } = find(o, "resonance") else {
+    let Effect::Resonance {
+        f0_hz,
+        f0_lo,
+        f0_hi,
+        q,
+        q_lo,
+        q_hi,
+        sigma,
+    } = find(o, "resonance")
+    else {
         unreachable!()
     };
+    println!(
+        "resonance f0 {f0_hz:.4} [{f0_lo:.4}, {f0_hi:.4}] (truth {f0}), q {q:.2} [{q_lo:.2}, {q_hi:.2}] (truth {q_true}), σ {:.4e} [{:.4e}, {:.4e}] (truth {sigma_true:.4e})",
+        sigma.value, sigma.lo, sigma.hi
+    );
     // Centre within a quarter of the half-power width f0/q; q within one step (×1.4) of the
     // loop's five-point q profile; σ within 10 %. The σ interval is not checked: it is the
     // spectrum fit's at the profiled f0 and q, blind to their uncertainty (see the report).
