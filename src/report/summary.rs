@@ -231,9 +231,16 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
         for t in &a.combined.terms {
             let [_, u1, _] = units_of(a.sensor, t.term);
             let read = a.combined.read_offs.iter().find(|r| r.term == t.term);
+            let source = match t.source {
+                crate::model::Domain::Allan => "AV",
+                crate::model::Domain::Spectrum => "PSD",
+            };
+            let ambiguous = t.ambiguous_with.map_or(String::new(), |u| {
+                format!(" (not told from {})", u.symbol())
+            });
             let _ = writeln!(
                 out,
-                "| {} | {} | {} {} | [{}, {}]{} | {} | {} | {} |",
+                "| {} | {} | {} {} | [{}, {}]{} | {source}{ambiguous} | {} | {} |",
                 a.channel,
                 t.term.symbol(),
                 sig4(u1.from_si(t.value)),
@@ -241,17 +248,6 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
                 sig4(u1.from_si(t.lo)),
                 sig4(u1.from_si(t.hi)),
                 if t.hull { " (both fits)" } else { "" },
-                format!(
-                    "{}{}",
-                    match t.source {
-                        crate::model::Domain::Allan => "AV",
-                        crate::model::Domain::Spectrum => "PSD",
-                    },
-                    t.ambiguous_with.map_or(String::new(), |u| format!(
-                        " (not told from {})",
-                        u.symbol()
-                    ))
-                ),
                 read.map_or("–".into(), |r| format!(
                     "{} at τ = {} s",
                     sig4(u1.from_si(r.value)),
