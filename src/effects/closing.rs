@@ -901,45 +901,88 @@ fn resonance_candidate(
     })
 }
 
+/// A first-order Gauss–Markov process, profiled over Tc (8 per decade from 10 samples to a tenth
+/// of the record). Tc is chosen by the two domains' joint ΔBIC, not by the spectrum alone: a
+/// correlation time longer than a Welch segment puts its knee below the spectrum's lowest band,
+/// where only the Allan variance shows it (such processes were missed when the spectrum's own
+/// best Tc, a noise-level improvement at short Tc, decided).
 fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig, p: f64) -> Option<Candidate> {
     let duration = state.y.len() as f64 / fs;
     let (lo, hi) = (10.0 / fs, duration / 10.0);
     if hi <= lo {
         return None;
     }
+    let (a0, s0) = (state.allan.as_ref()?, state.spectrum.as_ref()?);
+    let lowest_band = s0.points.first().map_or(f64::INFINITY, |p| p.x);
     let steps = ((hi / lo).log10() * 8.0).ceil() as usize;
-    let profile: Vec<(f64, f64, Option<NoiseFit>)> = (0..=steps)
-        .map(|k| {
+    struct Point {
+        tc: f64,
+        delta: f64,
+        ds: f64,
+        da: f64,
+        visible: bool,
+        allan: Option<NoiseFit>,
+        spectrum: Option<NoiseFit>,
+    }
+    let profile: Vec<Point> = (0..=steps)
+        .filter_map(|k| {
             let tc = lo * (hi / lo).powf(k as f64 / steps.max(1) as f64);
             let shape = GaussMarkov1 { tc_s: tc };
             let spectrum = fit_psd_with(&state.psd, &state.binned, &cfg.fit, Some(&shape)).ok();
-            let s = spectrum.as_ref().map_or(f64::INFINITY, score);
-            (s, tc, spectrum)
+            let allan = fit_avar_with(&state.dev, &cfg.fit, Some(&shape)).ok()?;
+            // A knee below the spectrum fit's lowest band is invisible there: only the Allan fit
+            // votes.
+            let knee = 1.0 / (2.0 * std::f64::consts::PI * tc);
+            let visible = knee >= lowest_band;
+            let da = score(&allan) + (allan.points.len() as f64).ln() - score(a0);
+            let ds = spectrum.as_ref().map_or(f64::INFINITY, |f| {
+                score(f) + (f.points.len() as f64).ln() - score(s0)
+            });
+            let delta = match (visible, ds < 0.0) {
+                (false, _) => da,
+                (true, true) => ds + da,
+                (true, false) => ds.max(0.0) + da.max(0.0),
+            };
+            let effect_of = |f: &NoiseFit| f.effect.is_some_and(|e| e.value > 0.0);
+            let present = if visible {
+                spectrum.as_ref().is_some_and(effect_of)
+            } else {
+                effect_of(&allan)
+            };
+            (present && delta.is_finite()).then_some(Point {
+                tc,
+                delta,
+                ds,
+                da,
+                visible,
+                allan: Some(allan),
+                spectrum,
+            })
         })
         .collect();
-    let (best_score, tc, spectrum) = profile.iter().min_by(|a, b| a.0.total_cmp(&b.0))?.clone();
+    let best = profile.iter().min_by(|a, b| a.delta.total_cmp(&b.delta))?;
+    let tc = best.tc;
     let shape = GaussMarkov1 { tc_s: tc };
-    let allan = fit_avar_with(&state.dev, &cfg.fit, Some(&shape)).ok();
-    let (ds, da) = stochastic_delta(state, allan.as_ref(), spectrum.as_ref(), 1.0)?;
-    // σ is tied to Tc (a longer correlation time puts the same low-frequency power in a larger
-    // σ): its interval is the union of the conditional ones over the Tc whose score lies within
-    // the χ²₁ quantile of the confidence of the best (the profile interval of Tc).
-    let mut sigma = spectrum.as_ref()?.effect?;
+    // σ from the domain that sees the process; it is tied to Tc (a longer correlation time puts
+    // the same low-frequency power in a larger σ): its interval is the union of the conditional
+    // ones over the Tc whose joint score lies within the χ²₁ quantile of the confidence of the
+    // best (the profile interval of Tc).
+    let sigma_of = |pt: &Point| {
+        if pt.visible {
+            pt.spectrum.as_ref()?.effect
+        } else {
+            pt.allan.as_ref()?.effect
+        }
+    };
+    let mut sigma = sigma_of(best)?;
     let q = norm_isf((1.0 - p) / 2.0).powi(2);
     for e in profile
         .iter()
-        .filter(|c| c.0 <= best_score + q)
-        .filter_map(|c| c.2.as_ref()?.effect)
+        .filter(|c| c.delta <= best.delta + q)
+        .filter_map(sigma_of)
     {
         (sigma.lo, sigma.hi) = (sigma.lo.min(e.lo), sigma.hi.max(e.hi));
     }
-    // A knee below the spectrum fit's lowest band is invisible there: only the Allan fit votes.
-    let knee = 1.0 / (2.0 * std::f64::consts::PI * tc);
-    let visible = state
-        .spectrum
-        .as_ref()
-        .and_then(|f| f.points.first())
-        .is_some_and(|p| knee >= p.x);
     let where_ = state
         .spectrum
         .as_ref()
@@ -948,18 +991,19 @@ fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig, p: f64) -> O
         .map_or(String::new(), |l| {
             format!("; largest spectrum residual {:.3}–{:.3} Hz", l.x_lo, l.x_hi)
         });
-    let delta_bic = match (visible, ds < 0.0) {
-        (false, _) => da,
-        (true, true) => ds + da,
-        (true, false) => ds.max(0.0) + da.max(0.0),
-    };
+    let (ds, da) = (best.ds, best.da);
     Some(Candidate {
-        delta_bic,
+        delta_bic: best.delta,
         evidence: format!(
-            "Lorentzian knee near {:.3} Hz (Tc = {tc:.3} s){where_}; ΔBIC spectrum {ds:.1}, Allan {da:.1}",
-            1.0 / (2.0 * std::f64::consts::PI * tc)
+            "Lorentzian knee near {:.4} Hz (Tc = {tc:.3} s{}){where_}; ΔBIC spectrum {ds:.1}, Allan {da:.1}",
+            1.0 / (2.0 * std::f64::consts::PI * tc),
+            if best.visible { "" } else { ", below the spectrum's lowest band: the Allan fit decides" }
         ),
         effect: Effect::GaussMarkov { tc_s: tc, sigma },
-        apply: Apply::Model(Box::new((Stochastic::GaussMarkov(shape), allan, spectrum))),
+        apply: Apply::Model(Box::new((
+            Stochastic::GaussMarkov(shape),
+            best.allan.clone(),
+            best.spectrum.clone(),
+        ))),
     })
 }
