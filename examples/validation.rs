@@ -16,11 +16,17 @@ use serde_json::json;
 
 const FS: f64 = 100.0;
 const FIRST_SEED: u64 = 900_000;
+/// Outliers planted in the outlier case (1 % of a 1800-s record at 100 Hz).
+const OUTLIERS: usize = 1800;
+/// 10σ of 10-s means of the white noise: 10·N/√10 s.
+const EXCURSION: f64 = 10.0 * 4.363_3e-5 / 3.162_277_7;
 
 struct Case {
     name: &'static str,
     filtered: bool,
     extra: serde_json::Value,
+    /// The effect planted (`None`: none; any addition is then false).
+    expect: Option<&'static str>,
 }
 
 fn truth() -> Coefficients {
@@ -43,6 +49,8 @@ struct Tally {
     kept: [usize; 3],
     warnings: usize,
     warning_kinds: Vec<String>,
+    found_expected: usize,
+    spikes_found: usize,
 }
 
 /// "(K disagrees 12, lack of fit (Allan) 3)".
@@ -80,22 +88,52 @@ fn main() {
             name: "clean IEEE (N, B, K)",
             filtered: false,
             extra: json!({}),
+            expect: None,
         },
         Case {
             name: "digital low-pass, order 2 at 20 Hz",
             filtered: true,
             extra: json!({ "lowpass": { "corner_hz": 20.0, "order": 2 } }),
+            expect: None,
         },
         Case {
             name: "digital low-pass, order 4 at 30 Hz + quantisation",
             filtered: true,
             extra: json!({ "lowpass": { "corner_hz": 30.0, "order": 4 },
                            "noise": { "q": CoefUnit::DegPerSqrtH.to_si(0.15) * 0.1 } }),
+            expect: None,
         },
         Case {
             name: "digital low-pass, order 1 at 10 Hz",
             filtered: true,
             extra: json!({ "lowpass": { "corner_hz": 10.0, "order": 1 } }),
+            expect: None,
+        },
+        Case {
+            name: "wandering line 12 Hz (±0.05 Hz, ±20 %, 10 s) ≈ 100× floor, low-pass order 2 at 25 Hz",
+            filtered: true,
+            extra: json!({ "lowpass": { "corner_hz": 25.0, "order": 2 },
+                "sinusoids": [{ "amplitude": 3e-4, "freq_hz": 12.0,
+                    "wander": { "freq_wander_hz": 0.05, "amplitude_wander": 0.2, "wander_tc_s": 10.0 } }] }),
+            expect: Some("narrowband"),
+        },
+        Case {
+            name: "Gauss–Markov σ 1e-4 rad/s, Tc 60 s (longer than a 41-s Welch segment)",
+            filtered: false,
+            extra: json!({ "gauss_markov": [{ "sigma": 1e-4, "tc_s": 60.0 }] }),
+            expect: Some("gauss_markov"),
+        },
+        Case {
+            name: "outliers: 1 % of samples ±8 white σ",
+            filtered: false,
+            extra: json!({ "spikes": { "count": OUTLIERS, "size": 8.0 * CoefUnit::DegPerSqrtH.to_si(0.15) * FS.sqrt() } }),
+            expect: Some("spikes"),
+        },
+        Case {
+            name: "excursion: +10σ (10-s means) from 600 s to 900 s",
+            filtered: false,
+            extra: json!({ "steps": [{ "time_s": 600.0, "size": EXCURSION }, { "time_s": 900.0, "size": -EXCURSION }] }),
+            expect: Some("step"),
         },
     ];
     let cfg = LoopConfig {
@@ -112,8 +150,8 @@ fn main() {
         (Term::RateRandomWalk, t.k),
     ];
     println!("Simulated gyro N = 0.15 °/√h, B = 3 °/h, K = 20 °/h/√h at {FS} Hz, {seconds} s per record, {seeds} seeds per case (from {FIRST_SEED}).\n");
-    println!("| case | filter found | records with an effect added | warnings | N ratio (median) | N coverage | B ratio | B coverage | B kept | K ratio | K coverage | K kept |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| case | filter found | planted effect found | records with an effect added | warnings | N ratio (median) | N coverage | B ratio | B coverage | B kept | K ratio | K coverage | K kept |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for case in &cases {
         let mut tally = Tally::default();
         for s in 0..seeds {
@@ -140,6 +178,15 @@ fn main() {
                 tally
                     .effects
                     .extend(o.report.steps.iter().map(|s| s.effect.kind()));
+            }
+            if let Some(kind) = case.expect {
+                tally.found_expected +=
+                    usize::from(o.report.steps.iter().any(|s| s.effect.kind() == kind));
+            }
+            for s in &o.report.steps {
+                if let imunoise::effects::Effect::Spikes(sp) = &s.effect {
+                    tally.spikes_found += sp.indices.len();
+                }
             }
             let dev = compute(
                 &y,
@@ -177,12 +224,21 @@ fn main() {
         effects.dedup();
         let [mut rn, mut rb, mut rk] = tally.ratio;
         println!(
-            "| {} | {} | {}{} | {}{} | {:.3} | {} | {:.3} | {} | {} | {:.3} | {} | {} |",
+            "| {} | {} | {} | {}{} | {}{} | {:.3} | {} | {:.3} | {} | {} | {:.3} | {} | {} |",
             case.name,
             if case.filtered {
                 pct(tally.detected, tally.runs)
             } else {
                 format!("{} false", tally.detected)
+            },
+            match case.expect {
+                Some("spikes") => format!(
+                    "{} ({:.1} % of the planted count on average)",
+                    pct(tally.found_expected, tally.runs),
+                    100.0 * tally.spikes_found as f64 / (OUTLIERS * tally.runs.max(1)) as f64
+                ),
+                Some(_) => pct(tally.found_expected, tally.runs),
+                None => "–".into(),
             },
             tally.with_effect,
             if effects.is_empty() {
