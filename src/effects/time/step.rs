@@ -103,10 +103,11 @@ pub fn find_step(y: &[f64], rate_hz: f64, p: f64) -> Option<Step> {
 fn scan(s: &[f64], w: usize) -> Option<Scan> {
     let n = s.len() - 1;
     let wf = w as f64;
-    let d: Vec<f64> = (w..=n - w)
-        .map(|k| (s[k + w] - 2.0 * s[k] + s[k - w]) / wf)
-        .collect();
-    let mut d2: Vec<f64> = d.iter().map(|v| v * v).collect();
+    let at = |k: usize| (s[k + w] - 2.0 * s[k] + s[k - w]) / wf;
+    // The Allan variance from every (w/8)-th difference: neighbours w/8 apart are correlated by
+    // 0.81, so the thinned trimmed mean is as precise, at an eighth of the selection work.
+    let stride = (w / 8).max(1);
+    let mut d2: Vec<f64> = (w..=n - w).step_by(stride).map(|k| at(k).powi(2)).collect();
     let keep = ((1.0 - TRIM) * d2.len() as f64).floor() as usize;
     if keep < 2 {
         return None;
@@ -120,10 +121,11 @@ fn scan(s: &[f64], w: usize) -> Option<Scan> {
         return None;
     }
     let sd = var.sqrt();
-    let (i, dk) = d
-        .iter()
-        .enumerate()
+    // The scan itself at every position.
+    let (k, dk) = (w..=n - w)
+        .map(|k| (k, at(k)))
         .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
+    let dk = &dk;
     let z = dk / sd;
     let nu = (n / w) as f64;
     // Normal-equivalent level of the t-distributed maximum, then Pickands.
@@ -137,7 +139,7 @@ fn scan(s: &[f64], w: usize) -> Option<Scan> {
     let pickands = 3.0 * len / wf * u * norm_pdf(u);
     let bonferroni = 2.0 * len * norm_sf(u);
     Some(Scan {
-        k: i + w,
+        k,
         w,
         d: *dk,
         sd,
