@@ -141,7 +141,7 @@ pub struct LoopStep {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Rejected {
     pub kind: &'static str,
-    /// `None` for an excess no candidate could be formed for (the note says why).
+    /// `None` for an excess no candidate could be formed for (kind `excess`; the note says why).
     pub delta_bic: Option<f64>,
     pub note: String,
 }
@@ -356,18 +356,18 @@ pub fn close_loop(
     let mut steps: Vec<LoopStep> = Vec::new();
     let mut rejected = Vec::new();
     while steps.len() < MAX_STEPS {
-        let candidates = propose(&state, fs, aux, cfg, p);
-        rejected = candidates
-            .iter()
-            .filter(|c| !c.admissible())
-            .map(|c| Rejected {
+        let mut unexplained = Vec::new();
+        let candidates = propose(&state, fs, aux, cfg, p, &mut unexplained);
+        rejected = unexplained;
+        rejected.extend(candidates.iter().filter(|c| !c.admissible()).map(|c| {
+            Rejected {
                 kind: c.effect.kind(),
                 delta_bic: c.delta_bic.is_finite().then_some(c.delta_bic),
                 note: c
                     .barred()
                     .map_or(c.evidence.clone(), |b| format!("{}; {b}", c.evidence)),
-            })
-            .collect();
+            }
+        }));
         let Some(best) = candidates
             .into_iter()
             .filter(Candidate::admissible)
@@ -453,13 +453,15 @@ fn describe_excess(e: &Excess) -> String {
     )
 }
 
-/// Every candidate of the catalogue on the current state.
+/// Every candidate of the catalogue on the current state; spectral excesses no candidate could be
+/// formed for go to `unexplained` with the reason.
 fn propose(
     state: &State,
     fs: f64,
     aux: &[AuxSeries<'_>],
     cfg: &LoopConfig,
     p: f64,
+    unexplained: &mut Vec<Rejected>,
 ) -> Vec<Candidate> {
     let mut out = Vec::new();
     let y = &state.y;
@@ -519,11 +521,10 @@ fn propose(
         let narrow = (e.f_hi_hz - e.f_lo_hz) <= NARROW_FRACTION * e.freq_hz;
         let in_band = e.f_hi_hz <= fit_edge;
         if !in_band && !narrow {
-            rejected_note(
-                &mut out,
+            unexplained.push(excess_note(
                 e,
                 "broad excess beyond the fit band (the sensor filter's transition): not an effect",
-            );
+            ));
             continue;
         }
         let noise = model(e.freq_hz);
@@ -566,11 +567,10 @@ fn propose(
                 out.push(c);
             }
         } else if in_band && !narrow {
-            rejected_note(
-                &mut out,
+            unexplained.push(excess_note(
                 e,
                 "resonance not tried: the model already holds a stochastic effect",
-            );
+            ));
         }
     }
     if stochastic.is_none() {
@@ -602,25 +602,14 @@ fn merge_narrowband(into: &mut NarrowBand, more: &NarrowBand) {
     into.delta_bic += more.delta_bic;
 }
 
-/// Records an excess that no candidate could be formed for, so that the report lists it.
-fn rejected_note(out: &mut Vec<Candidate>, e: &Excess, why: &str) {
-    out.push(Candidate {
-        delta_bic: f64::INFINITY,
-        evidence: format!("{}; {why}", describe_excess(e)),
-        effect: Effect::Narrowband(NarrowBand {
-            freq_hz: e.freq_hz,
-            width_hz: e.width_hz,
-            f_lo_hz: e.f_lo_hz,
-            f_hi_hz: e.f_hi_hz,
-            power: e.excess_power,
-            power_lo: f64::NAN,
-            power_hi: f64::NAN,
-            equivalent_amplitude: (2.0 * e.excess_power).sqrt(),
-            coherent_share: f64::NAN,
-            delta_bic: f64::INFINITY,
-        }),
-        apply: Apply::Series(Box::new(|_| {})),
-    });
+/// An excess that no candidate could be formed for, as the report lists it (kind `excess`, no
+/// ΔBIC).
+fn excess_note(e: &Excess, why: &str) -> Rejected {
+    Rejected {
+        kind: "excess",
+        delta_bic: None,
+        note: format!("{}; {why}", describe_excess(e)),
+    }
 }
 
 /// Raw p-value below which a slow effect's regression is repeated under the noise model refitted
@@ -925,7 +914,7 @@ fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig, p: f64) -> O
         ds: f64,
         da: f64,
         visible: bool,
-        allan: Option<NoiseFit>,
+        allan: NoiseFit,
         spectrum: Option<NoiseFit>,
     }
     let profile: Vec<Point> = (0..=steps)
@@ -959,7 +948,7 @@ fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig, p: f64) -> O
                 ds,
                 da,
                 visible,
-                allan: Some(allan),
+                allan,
                 spectrum,
             })
         })
@@ -975,7 +964,7 @@ fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig, p: f64) -> O
         if pt.visible {
             pt.spectrum.as_ref()?.effect
         } else {
-            pt.allan.as_ref()?.effect
+            pt.allan.effect
         }
     };
     let mut sigma = sigma_of(best)?;
@@ -1006,7 +995,7 @@ fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig, p: f64) -> O
         effect: Effect::GaussMarkov { tc_s: tc, sigma },
         apply: Apply::Model(Box::new((
             Stochastic::GaussMarkov(shape),
-            best.allan.clone(),
+            Some(best.allan.clone()),
             best.spectrum.clone(),
         ))),
     })

@@ -39,6 +39,7 @@ use crate::psd::{BinnedPsd, Psd};
 
 use super::fit::{members, Mask, Problem};
 use super::psd_fit::{filtered_basis, spectrum_problem, BandSamples};
+use super::select::rank_subsets;
 use super::{FitOptions, Term};
 
 /// Largest bias a band's filter may leave in the points the fits use (2 %).
@@ -198,20 +199,9 @@ fn neg2ll(problem: &Problem, mask: Mask) -> f64 {
 
 /// The subset of `allowed` with the best criterion score on `problem` (eligible subsets only).
 fn best_mask(problem: &Problem, allowed: Mask, opts: &FitOptions) -> Option<Mask> {
-    let n = problem.len();
-    (1..=allowed)
-        .filter(|&m| m & allowed == m)
-        .filter_map(|mask| {
-            let fit = problem.irls(mask);
-            let idx = members(mask);
-            if !idx.iter().all(|&j| fit.c[j] > 0.0) {
-                return None;
-            }
-            let (_, _, ll) = problem.likelihood(&fit);
-            let score = opts.criterion.score(ll, idx.len(), n);
-            score.is_finite().then_some((score, mask))
-        })
-        .min_by(|a, b| a.0.total_cmp(&b.0))
+    rank_subsets(problem, allowed, 0, opts)
+        .into_iter()
+        .find(|(c, _)| c.proper && c.score.is_finite())
         .map(|(_, m)| m)
 }
 
@@ -318,7 +308,7 @@ pub fn detect_bandwidth(
         return None;
     }
     let shaped_edge = lowpass.edge_hz(BAND_BIAS);
-    let fit_max_freq_hz = checked_edge(psd, binned, opts, mask, shaped_edge);
+    let fit_max_freq_hz = checked_edge(&full, &x_full, opts, mask, shaped_edge);
     // Where the data moved the edge down, the filter acts lower than its fitted shape says: the
     // Allan cut moves up by the same factor.
     let tau_scale = shaped_edge / fit_max_freq_hz;
@@ -372,14 +362,12 @@ const EDGE_DEFICIT_Z: f64 = -3.5;
 /// The edge checked on the data: the unfiltered model (the terms the criterion picks on that band)
 /// fitted below `edge` must leave no deficit in its top 0.2 decade (the fitted response is a family shape and may be wrong near the corner);
 /// while it does, the edge is lowered by 1/20 decade (at most a decade in all).
-fn checked_edge(psd: &Psd, binned: &BinnedPsd, opts: &FitOptions, mask: Mask, edge: f64) -> f64 {
+fn checked_edge(full: &Problem, x: &[f64], opts: &FitOptions, mask: Mask, edge: f64) -> f64 {
     let mut edge = edge;
     for _ in 0..20 {
-        let mut o = opts.clone();
-        o.max_freq_hz = Some(edge);
-        let Ok((p, x, _)) = spectrum_problem(psd, binned, &o, None) else {
-            break;
-        };
+        let below: Vec<usize> = (0..x.len()).filter(|&i| x[i] <= edge).collect();
+        let p = full.subset(&below);
+        let f: Vec<f64> = below.iter().map(|&i| x[i]).collect();
         if p.len() < 8 {
             break;
         }
@@ -391,7 +379,7 @@ fn checked_edge(psd: &Psd, binned: &BinnedPsd, opts: &FitOptions, mask: Mask, ed
         let floor = edge / 10f64.powf(0.2);
         let top: Vec<f64> = z
             .iter()
-            .zip(&x)
+            .zip(&f)
             .filter(|(_, &f)| f >= floor)
             .map(|(z, _)| *z)
             .collect();

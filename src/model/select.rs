@@ -22,6 +22,41 @@ use super::{
     TermEstimate, UpperLimit,
 };
 
+/// Every subset of `allowed` (with `forced` in each) fitted on `problem` and scored by the
+/// criterion, best score first, with its mask.
+pub(crate) fn rank_subsets(
+    problem: &Problem,
+    allowed: Mask,
+    forced: Mask,
+    opts: &FitOptions,
+) -> Vec<(Candidate, Mask)> {
+    let n = problem.len();
+    let first = if forced == 0 { 1 } else { 0 };
+    let mut fits: Vec<(Candidate, Mask)> = (first..=allowed)
+        .filter(|&m| m & allowed == m)
+        .map(|m| m | forced)
+        .map(|mask| {
+            let fit = problem.irls(mask);
+            let idx = members(mask);
+            let proper = idx.iter().all(|&j| fit.c[j] > 0.0);
+            let (_, chi2, neg2ll) = problem.likelihood(&fit);
+            let candidate = Candidate {
+                terms: idx
+                    .iter()
+                    .filter(|&&j| j < BASE)
+                    .map(|&j| Term::ALL[j])
+                    .collect(),
+                chi2,
+                score: opts.criterion.score(neg2ll, idx.len(), n),
+                proper,
+            };
+            (candidate, mask)
+        })
+        .collect();
+    fits.sort_by(|a, b| a.0.score.total_cmp(&b.0.score));
+    fits
+}
+
 /// Fits `problem` (points at `x`), choosing among the subsets of `allowed` by their scores on
 /// `screen` (the same points, possibly other variances). Columns in `forced` (an effect) are in
 /// every candidate; the base terms are chosen around them.
@@ -45,29 +80,7 @@ pub(crate) fn select_and_fit(
         .confidence
         .probability()
         .map_err(|e| FitError::InvalidOptions(e.to_string()))?;
-    let first = if forced == 0 { 1 } else { 0 };
-    let mut fits: Vec<(Candidate, Mask)> = (first..=allowed)
-        .filter(|&m| m & allowed == m)
-        .map(|m| m | forced)
-        .map(|mask| {
-            let fit = screen.irls(mask);
-            let idx = members(mask);
-            let proper = idx.iter().all(|&j| fit.c[j] > 0.0);
-            let (_, chi2, neg2ll) = screen.likelihood(&fit);
-            let candidate = Candidate {
-                terms: idx
-                    .iter()
-                    .filter(|&&j| j < BASE)
-                    .map(|&j| Term::ALL[j])
-                    .collect(),
-                chi2,
-                score: opts.criterion.score(neg2ll, idx.len(), n),
-                proper,
-            };
-            (candidate, mask)
-        })
-        .collect();
-    fits.sort_by(|a, b| a.0.score.total_cmp(&b.0.score));
+    let fits = rank_subsets(screen, allowed, forced, opts);
     let best = fits
         .iter()
         .position(|(c, _)| c.proper && c.score.is_finite())

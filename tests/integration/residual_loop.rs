@@ -1,34 +1,21 @@
 //! The residual loop on simulated recordings whose effects are not declared to it: each is found,
 //! named and fitted, and the error falls; pure IEEE-model data get nothing added.
 
-use imunoise::avar::{Confidence, TauGrid};
 use imunoise::effects::{close_loop, AuxSeries, Effect, LoopConfig, LoopOutcome};
-use imunoise::model::{CoefUnit, Coefficients, FitOptions, GaussMarkov};
-use imunoise::psd::WelchConfig;
+use imunoise::model::GaussMarkov;
 use imunoise::sim::{simulate, SimSpec};
 use serde_json::json;
 
 const FS: f64 = 100.0;
 
 fn config() -> LoopConfig {
-    LoopConfig {
-        welch: WelchConfig::new(4096),
-        bins_per_decade: 20,
-        taus: TauGrid::Octave,
-        confidence: Confidence::OneSigma,
-        fit: FitOptions::default(),
-    }
+    crate::support::loop_config()
 }
 
 /// A gyro with N = 0.15 °/√h, B = 3 °/h, K = 20 °/h/√h plus `extra` (JSON fields of the channel
 /// spec), `seconds` long at 100 Hz; returns the gyro and, with a temperature, that channel.
 fn record(extra: serde_json::Value, temperature: bool, seconds: f64, seed: u64) -> Vec<Vec<f64>> {
-    let noise = Coefficients {
-        n: CoefUnit::DegPerSqrtH.to_si(0.15),
-        b: CoefUnit::DegPerH.to_si(3.0),
-        k: CoefUnit::DegPerHPerSqrtH.to_si(20.0),
-        ..Default::default()
-    };
+    let noise = crate::support::loop_gyro();
     let mut ch = json!({ "name": "g", "sensor": "gyro", "noise": noise });
     for (k, v) in extra.as_object().unwrap() {
         ch[k] = v.clone();

@@ -9,11 +9,9 @@
 //! spread over seeds 11–16 seen while writing the tests (while the loop was still being edited);
 //! the recovery rates and interval coverages over 50 seeds come from `examples/loop_screen.rs`.
 
-use imunoise::avar::{Confidence, TauGrid};
 use imunoise::effects::slow::DriftShape;
 use imunoise::effects::{close_loop, AuxSeries, Effect, LoopConfig, LoopOutcome};
-use imunoise::model::{CoefUnit, Coefficients, FitOptions, NoiseFit, Term};
-use imunoise::psd::WelchConfig;
+use imunoise::model::{CoefUnit, Coefficients, NoiseFit, Term};
 use imunoise::sim::{simulate, ChannelTruth, SimSpec};
 use serde_json::json;
 
@@ -22,13 +20,7 @@ const SECONDS: f64 = 1200.0;
 const SEED: u64 = 11;
 
 fn config() -> LoopConfig {
-    LoopConfig {
-        welch: WelchConfig::new(4096),
-        bins_per_decade: 20,
-        taus: TauGrid::Octave,
-        confidence: Confidence::OneSigma,
-        fit: FitOptions::default(),
-    }
+    crate::support::loop_config()
 }
 
 /// N of the gyro, rad/√s.

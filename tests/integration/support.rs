@@ -147,3 +147,26 @@ pub fn imunoise(args: &[&str], cwd: &Path) -> Output {
 pub fn repo_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
+
+/// The residual loop's settings in the loop tests: Welch segments of 4096, 20 bands per decade,
+/// octave τ, 1σ intervals, default fit options.
+pub fn loop_config() -> imunoise::effects::LoopConfig {
+    imunoise::effects::LoopConfig {
+        welch: imunoise::psd::WelchConfig::new(4096),
+        bins_per_decade: 20,
+        taus: imunoise::avar::TauGrid::Octave,
+        confidence: imunoise::avar::Confidence::OneSigma,
+        fit: imunoise::model::FitOptions::default(),
+    }
+}
+
+/// The loop tests' gyro: N = 0.15 °/√h, B = 3 °/h, K = 20 °/h/√h (SI).
+pub fn loop_gyro() -> imunoise::model::Coefficients {
+    use imunoise::model::CoefUnit;
+    imunoise::model::Coefficients {
+        n: CoefUnit::DegPerSqrtH.to_si(0.15),
+        b: CoefUnit::DegPerH.to_si(3.0),
+        k: CoefUnit::DegPerHPerSqrtH.to_si(20.0),
+        ..Default::default()
+    }
+}
