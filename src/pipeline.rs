@@ -137,6 +137,44 @@ pub fn run(
     // Notes left by an earlier recording that failed half-way are not this recording's.
     let _ = backend.take_notes();
     let recording = io::open(path, &inputs.open)?;
+    if work.fit.is_some() && !recording
+        .channels
+        .iter()
+        .any(|c| Sensor::of_kind(c.kind).is_some()) {
+        return Err(InputError::NoInertialChannel {
+            path: path.to_path_buf(),
+            channels: recording
+                .channels
+                .iter()
+                .map(|c| match c.unit {
+                    Some(u) => format!("{} ({}, {})", c.name, u, c.kind),
+                    None => format!("{} (no unit)", c.name),
+                })
+                .collect::<Vec<_>>()
+                .join(", "),
+        }
+        .into());
+    }
+    if let Some(opts) = &work.fit {
+        let nyquist = recording.rate_hz / 2.0;
+        for (flag, value) in [
+            ("--fit-min-freq", opts.min_freq_hz),
+            ("--fit-max-freq", opts.max_freq_hz),
+        ] {
+            if let Some(f) = value.filter(|&f| f >= nyquist) {
+                return Err(InputError::OptionOutOfRange {
+                    path: path.to_path_buf(),
+                    flag,
+                    message: format!(
+                        "{f} Hz is not below the Nyquist frequency, {} (the fit band must lie in \
+                         (0, {nyquist}) Hz)",
+                        io::rate_text(nyquist)
+                    ),
+                }
+                .into());
+            }
+        }
+    }
     progress.start(path);
     let n_channels = recording.channels.len();
     let mut timings = Timings::default();
@@ -231,7 +269,15 @@ pub fn run(
                 _ => None,
             };
             let samples = series.as_deref().unwrap_or(&[]);
-            let out = fit_channels(&recording, psd, avar, samples, opts, loop_cfg.as_ref());
+            let out = fit_channels(
+                &recording,
+                &quality,
+                psd,
+                avar,
+                samples,
+                opts,
+                loop_cfg.as_ref(),
+            );
             timings.fit_s = t.elapsed().as_secs_f64();
             Some(out)
         }
@@ -253,9 +299,13 @@ pub fn run(
 }
 
 /// The model stage over the inertial channels (gyro and accel kinds), in channel order, in
-/// parallel; temperature and aux channels are the loop's regressors.
+/// parallel; temperature and aux channels are the loop's regressors. A channel the quality screen
+/// found unanalysable (stuck, one or two levels) is not fitted: its verdict says why, and no model or
+/// effect is invented for it.
+#[allow(clippy::too_many_arguments)]
 fn fit_channels(
     recording: &Recording,
+    quality: &QualityReport,
     psd: &[ChannelPsd],
     avar: &[ChannelDeviations],
     samples: &[Vec<f64>],
@@ -277,6 +327,7 @@ fn fit_channels(
         .channels
         .iter()
         .enumerate()
+        .filter(|(_, c)| quality.analysable(&c.name))
         .filter_map(|(i, c)| {
             Some(ChannelInput {
                 sensor: Sensor::of_kind(c.kind)?,

@@ -5,6 +5,16 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
+/// `imunoise --version`: the crate version and the git commit it was built from.
+const VERSION: &str = concat!(
+    env!("CARGO_PKG_VERSION"),
+    " (commit ",
+    env!("IMUNOISE_COMMIT"),
+    " ",
+    env!("IMUNOISE_COMMIT_DATE"),
+    ")"
+);
+
 /// Noise characterisation of inertial sensors: Welch PSD and Allan-family deviations of long static
 /// recordings (Arrow IPC, Parquet, CSV).
 ///
@@ -12,7 +22,7 @@ use clap::{Args, Parser, Subcommand};
 /// (rad/s)^2/Hz or (m/s^2)^2/Hz and deviations in rad/s or m/s^2. Exit codes: 0 all inputs fine,
 /// 1 some inputs failed (the others are still processed and written), 2 usage or fatal error.
 #[derive(Debug, Parser)]
-#[command(name = "imunoise", version, max_term_width = 100)]
+#[command(name = "imunoise", version = VERSION, max_term_width = 100)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -130,7 +140,8 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "FILE")]
     pub spec: Option<PathBuf>,
 
-    /// Output file (.arrow Arrow IPC file).
+    /// Output file; the extension picks the format: .arrow (Arrow IPC file), .arrows (Arrow IPC
+    /// stream), .parquet, .csv (time in seconds, units in the header).
     #[arg(short, long, value_name = "FILE")]
     pub out: PathBuf,
 
@@ -154,10 +165,10 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 3, value_name = "N")]
     pub axes: usize,
 
-    /// Without --spec: a noise coefficient as TERM=VALUE UNIT, e.g. N=0.15deg/sqrt(h),
+    /// Without --spec: a noise coefficient as TERM=VALUEUNIT, e.g. N=0.15deg/sqrt(h),
     /// B=3deg/h, K=0.5deg/h/sqrt(h), Q=2arcsec, R=10deg/h^2, or for accelerometers
-    /// N=60ug/sqrt(Hz), B=20ug. Repeatable.
-    #[arg(long = "noise", value_name = "TERM=VALUE[UNIT]")]
+    /// N=60ug/sqrt(Hz), B=20ug. The unit is required. Repeatable.
+    #[arg(long = "noise", value_name = "TERM=VALUEUNIT")]
     pub noise: Vec<String>,
 
     /// Store samples as f32 instead of f64.
@@ -174,7 +185,7 @@ pub struct SimulateArgs {
 #[command(next_help_heading = "Input")]
 pub struct InputArgs {
     /// Recordings to process (.arrow/.feather/.ipc Arrow IPC file, .arrows Arrow IPC stream,
-    /// .parquet, .csv). One bad file does not stop the others.
+    /// .parquet, .csv, .mcap ROS 2 bag). One bad file does not stop the others.
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
 
@@ -202,6 +213,13 @@ pub struct InputArgs {
     #[arg(long, value_name = "NAME", conflicts_with = "no_time")]
     pub time_column: Option<String>,
 
+    /// Unit of a time column stored as plain numbers: s, ms, us or ns (overrides the column's `unit`
+    /// metadata). Without it, an integer time column with no unit is read in the one unit that gives
+    /// a plausible IMU rate (1 Hz to 10 kHz) or agrees with the stated rate, and refused when that is
+    /// ambiguous; float columns are seconds.
+    #[arg(long, value_name = "UNIT", conflicts_with = "no_time")]
+    pub time_unit: Option<String>,
+
     /// Ignore any time column (no gap checks; the rate must come from metadata or --rate).
     #[arg(long)]
     pub no_time: bool,
@@ -217,7 +235,13 @@ pub struct InputArgs {
     #[arg(long, default_value = "error", value_name = "POLICY")]
     pub on_gap: String,
 
-    /// Rows per record batch read from CSV and Parquet files (Arrow IPC files keep their own batches).
+    /// MCAP files: the sensor_msgs/msg/Imu topic to read (needed when a file has several; the error
+    /// lists them). Temperature topics join as channels. An error for other formats.
+    #[arg(long, value_name = "TOPIC")]
+    pub topic: Option<String>,
+
+    /// Rows per record batch read from CSV, Parquet and MCAP files (Arrow IPC files keep their own
+    /// batches).
     #[arg(long, default_value_t = imunoise::io::DEFAULT_BATCH_ROWS, value_name = "ROWS")]
     pub batch_rows: usize,
 }

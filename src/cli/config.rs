@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use imunoise::avar::{Confidence, Statistic, TauGrid};
-use imunoise::io::{ColumnOverrides, OpenOptions};
+use imunoise::io::{ColumnOverrides, OpenOptions, TimeUnit};
 use imunoise::model::{Criterion, FitOptions, Term};
 use imunoise::pipeline::{AvarWork, Inputs, TauSpec, WelchWork, Work};
 use imunoise::psd::{Scaling, WelchConfig};
@@ -20,6 +20,14 @@ use super::args::{
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct UsageError(pub String);
+
+/// Bounds of flags whose extreme values would run for hours or exhaust memory rather than fail.
+const MAX_BATCH_ROWS: usize = 1 << 24;
+/// Log bins per decade of the binned spectrum: beyond this the bins are finer than a long Welch
+/// segment's resolution anyway.
+const MAX_BINS_PER_DECADE: u32 = 1000;
+/// ...and for the fit, whose cost grows with the number of bins.
+const MAX_FIT_BINS_PER_DECADE: u32 = 200;
 
 fn usage(e: impl std::fmt::Display) -> UsageError {
     UsageError(e.to_string())
@@ -164,8 +172,15 @@ fn inputs(
             )));
         }
     }
-    if a.batch_rows == 0 {
-        return Err(usage("--batch-rows must be at least 1"));
+    if a.batch_rows == 0 || a.batch_rows > MAX_BATCH_ROWS {
+        return Err(usage(format!(
+            "--batch-rows {}: must be between 1 and {MAX_BATCH_ROWS}",
+            a.batch_rows
+        )));
+    }
+    let mut seen = std::collections::HashSet::new();
+    if let Some(twice) = a.channels.iter().find(|c| !seen.insert(c.as_str())) {
+        return Err(usage(format!("--channels: {twice:?} is named twice")));
     }
     let quality = QualityOptions {
         nonfinite: a
@@ -177,19 +192,31 @@ fn inputs(
             .parse()
             .map_err(|e| usage(format!("--on-gap: {e}")))?,
     };
+    if a.no_time && quality.gaps == imunoise::quality::GapPolicy::Fill {
+        return Err(usage(
+            "--on-gap fill needs the time column to find gaps, and --no-time ignores it",
+        ));
+    }
     let columns = ColumnOverrides {
         channels: a.channels.clone(),
         units: pairs::<Unit>(&a.units, "unit")?,
         kinds: pairs::<Kind>(&a.kinds, "kind")?,
         time_column: a.time_column.clone(),
         ignore_time: a.no_time,
+        time_unit: match &a.time_unit {
+            Some(text) => Some(
+                text.parse::<TimeUnit>()
+                    .map_err(|e| usage(format!("--time-unit: {e}")))?,
+            ),
+            None => None,
+        },
     };
     options.insert(
         "input".into(),
         json!({
             "channels": a.channels, "rate_hz": a.rate, "units": a.units, "kinds": a.kinds,
-            "time_column": a.time_column, "no_time": a.no_time,
-            "on_nonfinite": quality.nonfinite, "on_gap": quality.gaps,
+            "time_column": a.time_column, "no_time": a.no_time, "time_unit": a.time_unit,
+            "on_nonfinite": quality.nonfinite, "on_gap": quality.gaps, "topic": a.topic,
         }),
     );
     Ok(Inputs {
@@ -197,6 +224,7 @@ fn inputs(
             columns,
             rate_hz: a.rate,
             batch_rows: a.batch_rows,
+            topic: a.topic.clone(),
         },
         quality,
     })
@@ -228,6 +256,12 @@ fn welch_work(
             .map_err(|e| usage(format!("--average: {e}")))?,
     };
     let plan = config.validate().map_err(usage)?;
+    if a.bins_per_decade > MAX_BINS_PER_DECADE {
+        return Err(usage(format!(
+            "--bins-per-decade {}: must be between 0 and {MAX_BINS_PER_DECADE}",
+            a.bins_per_decade
+        )));
+    }
     options.insert(
         "welch".into(),
         json!({
@@ -394,6 +428,14 @@ fn fit_options(
         }
     }
     if let Some(w) = welch {
+        if w.bins_per_decade.is_some_and(|k| k > MAX_FIT_BINS_PER_DECADE) {
+            return Err(usage(format!(
+                "--bins-per-decade {}: analyze fits the binned spectrum, which needs between 1 and \
+                 {MAX_FIT_BINS_PER_DECADE} bins per decade (finer bins only add correlated points \
+                 and time)",
+                w.bins_per_decade.unwrap_or(0)
+            )));
+        }
         if w.bins_per_decade.is_none() {
             return Err(usage(
                 "analyze fits the log-binned spectrum: --bins-per-decade must be at least 1",

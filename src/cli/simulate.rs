@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use imunoise::io::{write_recording, ColumnOut, StoredAs};
+use imunoise::io::{write_recording, ColumnOut, Format, StoredAs};
 use imunoise::model::{CoefUnit, Sensor, Term};
 use imunoise::sim::{simulate, SimSpec};
 use serde_json::{json, Value};
@@ -25,7 +25,8 @@ fn usage(e: impl std::fmt::Display) -> UsageError {
     UsageError(e.to_string())
 }
 
-/// `TERM=VALUE[UNIT]` → (term, SI value). Without a unit the value is SI.
+/// `TERM=VALUEUNIT` → (term, SI value). The unit is required: a bare number would be read in some
+/// unit the user did not mean (N=0.15 is 0.15 °/√h on a datasheet, 0.15 rad/√s in SI: 3400× apart).
 fn noise_flag(text: &str, sensor: Sensor) -> Result<(Term, f64), UsageError> {
     let (term, rest) = text
         .split_once('=')
@@ -48,16 +49,18 @@ fn noise_flag(text: &str, sensor: Sensor) -> Result<(Term, f64), UsageError> {
     if !(value.is_finite() && value >= 0.0) {
         return Err(usage(format!("--noise {text:?}: must be >= 0")));
     }
-    let unit = if unit.trim().is_empty() {
-        CoefUnit::si(sensor, term)
-    } else {
-        let u: CoefUnit = unit
-            .parse()
-            .map_err(|e| usage(format!("--noise {text:?}: {e}")))?;
-        u.check(sensor, term)
-            .map_err(|e| usage(format!("--noise {text:?}: {e}")))?;
-        u
-    };
+    if unit.trim().is_empty() {
+        return Err(usage(format!(
+            "--noise {text:?}: give a unit, e.g. {}={value}{} (SI) — a bare number is ambiguous",
+            term.symbol(),
+            CoefUnit::si(sensor, term)
+        )));
+    }
+    let unit: CoefUnit = unit
+        .parse()
+        .map_err(|e| usage(format!("--noise {text:?}: {e}")))?;
+    unit.check(sensor, term)
+        .map_err(|e| usage(format!("--noise {text:?}: {e}")))?;
     Ok((term, unit.to_si(value)))
 }
 
@@ -117,6 +120,25 @@ pub fn job(a: &SimulateArgs) -> Result<SimulateJob, UsageError> {
     for (key, flag) in [("rate_hz", "--rate"), ("duration_s", "--duration")] {
         if spec.get(key).is_none() {
             return Err(usage(format!("{flag} is required (or {key} in --spec)")));
+        }
+    }
+    match Format::from_extension(&a.out) {
+        Some(Format::ArrowFile | Format::ArrowStream | Format::Parquet | Format::Csv) => {}
+        _ => {
+            return Err(usage(format!(
+                "-o {}: the extension names no format simulate writes; use .arrow (Arrow IPC \
+                 file), .arrows (Arrow IPC stream), .parquet or .csv",
+                a.out.display()
+            )))
+        }
+    }
+    if let Some(dir) = a.out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            return Err(usage(format!(
+                "-o {}: the folder {} does not exist",
+                a.out.display(),
+                dir.display()
+            )));
         }
     }
     let spec: SimSpec =

@@ -114,9 +114,19 @@ fn corrupt(path: &Path, format: Format, message: impl ToString) -> InputError {
 }
 
 /// Reads the full schema of a file (for CSV: inferred, numeric columns widened to f64, and a header of the
-/// form `name [unit]` turned into the field `name` with metadata `unit`).
-pub fn read_schema(path: &Path, format: Format) -> Result<SchemaRef, InputError> {
+/// form `name [unit]` turned into the field `name` with metadata `unit`; for MCAP: the columns of the IMU
+/// topic `topic`, or of the only one, see [`super::mcap`]).
+pub fn read_schema(
+    path: &Path,
+    format: Format,
+    topic: Option<&str>,
+) -> Result<SchemaRef, InputError> {
     let file = open_file(path)?;
+    if format == Format::Mcap {
+        // Its errors name topics as well as corruption, so they come back as they are.
+        return guard(|| super::mcap::read_schema(path, &file, topic))
+            .unwrap_or_else(|panic| Err(corrupt(path, format, panic)));
+    }
     let result = guard(|| -> Result<SchemaRef, String> {
         match format {
             Format::ArrowFile => arrow_ipc::reader::FileReader::try_new_buffered(file, None)
@@ -129,6 +139,7 @@ pub fn read_schema(path: &Path, format: Format) -> Result<SchemaRef, InputError>
                 .map(|b| b.schema().clone())
                 .map_err(|e| e.to_string()),
             Format::Csv => csv_schema(file).map(Arc::new),
+            Format::Mcap => unreachable!("MCAP schemas are read above"),
         }
     });
     match result {
@@ -237,6 +248,7 @@ pub fn open_batches(
                     .map_err(|e| e.to_string())?;
                 Box::new(reader.map(map))
             }
+            Format::Mcap => super::mcap::open_batches(file, &schema, &projection, batch_rows)?,
         })
     });
     match built {

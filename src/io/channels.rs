@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use arrow_schema::{DataType, Field, Schema, TimeUnit};
+use arrow_schema::{DataType, Field, Schema, TimeUnit as ArrowTimeUnit};
 use serde::Serialize;
 
 use super::InputError;
@@ -44,10 +44,96 @@ impl ChannelSpec {
 pub enum TimeEncoding {
     /// Arrow timestamp; `seconds_per_tick` from its unit.
     Timestamp { seconds_per_tick: f64 },
-    /// Floating-point seconds.
-    Seconds,
-    /// Integer ticks with a `unit` metadata of s, ms, us or ns.
+    /// Floating-point values in a unit of `seconds_per_unit` seconds (1 for seconds).
+    Float { seconds_per_unit: f64 },
+    /// Integer ticks of `seconds_per_tick` seconds.
     IntegerTicks { seconds_per_tick: f64 },
+}
+
+impl TimeEncoding {
+    /// Seconds per stored unit.
+    pub fn seconds_per_unit(self) -> f64 {
+        match self {
+            TimeEncoding::Timestamp { seconds_per_tick }
+            | TimeEncoding::IntegerTicks { seconds_per_tick } => seconds_per_tick,
+            TimeEncoding::Float { seconds_per_unit } => seconds_per_unit,
+        }
+    }
+
+    fn with_seconds_per_unit(self, s: f64) -> TimeEncoding {
+        match self {
+            TimeEncoding::Timestamp { .. } => TimeEncoding::Timestamp { seconds_per_tick: s },
+            TimeEncoding::Float { .. } => TimeEncoding::Float { seconds_per_unit: s },
+            TimeEncoding::IntegerTicks { .. } => TimeEncoding::IntegerTicks { seconds_per_tick: s },
+        }
+    }
+}
+
+/// A unit of time values: `--time-unit` or a time column's `unit` metadata.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TimeUnit {
+    S,
+    Ms,
+    Us,
+    Ns,
+}
+
+impl TimeUnit {
+    pub const ALL: [TimeUnit; 4] = [TimeUnit::S, TimeUnit::Ms, TimeUnit::Us, TimeUnit::Ns];
+
+    pub fn seconds(self) -> f64 {
+        match self {
+            TimeUnit::S => 1.0,
+            TimeUnit::Ms => 1e-3,
+            TimeUnit::Us => 1e-6,
+            TimeUnit::Ns => 1e-9,
+        }
+    }
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            TimeUnit::S => "s",
+            TimeUnit::Ms => "ms",
+            TimeUnit::Us => "us",
+            TimeUnit::Ns => "ns",
+        }
+    }
+}
+
+impl std::str::FromStr for TimeUnit {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text.trim() {
+            "s" | "sec" | "seconds" => Ok(TimeUnit::S),
+            "ms" | "milliseconds" => Ok(TimeUnit::Ms),
+            "us" | "µs" | "microseconds" => Ok(TimeUnit::Us),
+            "ns" | "nanoseconds" => Ok(TimeUnit::Ns),
+            other => Err(format!("time unit {other:?} is not one of s, ms, us, ns")),
+        }
+    }
+}
+
+impl std::fmt::Display for TimeUnit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// Where a time column's unit came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TimeUnitSource {
+    /// An Arrow timestamp type carries its unit.
+    ArrowType,
+    /// Field metadata `unit`.
+    Metadata,
+    /// `--time-unit`.
+    Flag,
+    /// A floating-point column with fractional values in a typed format: seconds, by convention.
+    FloatSeconds,
+    /// Not stated: the one unit that gives a plausible sample rate (see [`resolve_time_unit`]).
+    Inferred,
 }
 
 /// The time column of a recording.
@@ -57,6 +143,7 @@ pub struct TimeSpec {
     #[serde(skip)]
     pub column: usize,
     pub encoding: TimeEncoding,
+    pub unit_source: TimeUnitSource,
 }
 
 /// What the user said about columns on the command line; each entry overrides file metadata.
@@ -72,6 +159,8 @@ pub struct ColumnOverrides {
     pub time_column: Option<String>,
     /// Treat the recording as having no time column even if one is found.
     pub ignore_time: bool,
+    /// `--time-unit`: the unit of a time column stored as plain numbers.
+    pub time_unit: Option<TimeUnit>,
 }
 
 impl ColumnOverrides {
@@ -146,52 +235,201 @@ pub fn find_time(
         return Ok(None);
     };
     let field = schema.field(column);
-    let encoding = time_encoding(path, field)?;
+    let (encoding, unit_source) = time_encoding(path, field, overrides.time_unit)?;
     Ok(Some(TimeSpec {
         name: field.name().clone(),
         column,
         encoding,
+        unit_source,
     }))
 }
 
-fn time_encoding(path: &Path, field: &Field) -> Result<TimeEncoding, InputError> {
+/// The encoding of a time column as far as its type, metadata and `--time-unit` tell. A column of
+/// plain numbers with no stated unit comes back with [`TimeUnitSource::Inferred`] and one second per
+/// unit, to be settled by [`resolve_time_unit`] once its intervals are known.
+fn time_encoding(
+    path: &Path,
+    field: &Field,
+    flag: Option<TimeUnit>,
+) -> Result<(TimeEncoding, TimeUnitSource), InputError> {
     let bad = |message: String| InputError::BadMetadata {
         path: path.to_path_buf(),
         column: field.name().clone(),
         message,
     };
-    match field.data_type() {
-        DataType::Timestamp(unit, _) => Ok(TimeEncoding::Timestamp {
-            seconds_per_tick: seconds_per(unit),
-        }),
-        DataType::Float32 | DataType::Float64 => Ok(TimeEncoding::Seconds),
-        t if t.is_integer() => {
-            let unit = field.metadata().get("unit").map(|s| s.trim().to_string());
-            let seconds_per_tick = match unit.as_deref() {
-                Some("s") => 1.0,
-                Some("ms") => 1e-3,
-                Some("us") | Some("µs") => 1e-6,
-                Some("ns") => 1e-9,
-                other => {
-                    return Err(bad(format!(
-                        "integer time column needs field metadata unit = s, ms, us or ns (found {other:?})"
-                    )))
-                }
-            };
-            Ok(TimeEncoding::IntegerTicks { seconds_per_tick })
+    let stated = || -> Result<Option<(f64, TimeUnitSource)>, InputError> {
+        if let Some(u) = flag {
+            return Ok(Some((u.seconds(), TimeUnitSource::Flag)));
         }
+        match field.metadata().get("unit") {
+            Some(text) => {
+                let u: TimeUnit = text.parse().map_err(|e: String| {
+                    bad(format!("{e} (field metadata unit; --time-unit overrides it)"))
+                })?;
+                Ok(Some((u.seconds(), TimeUnitSource::Metadata)))
+            }
+            None => Ok(None),
+        }
+    };
+    match field.data_type() {
+        DataType::Timestamp(unit, _) => Ok((
+            TimeEncoding::Timestamp {
+                seconds_per_tick: seconds_per(unit),
+            },
+            TimeUnitSource::ArrowType,
+        )),
+        DataType::Float32 | DataType::Float64 => Ok(match stated()? {
+            Some((s, source)) => (TimeEncoding::Float { seconds_per_unit: s }, source),
+            None => (
+                TimeEncoding::Float {
+                    seconds_per_unit: 1.0,
+                },
+                TimeUnitSource::Inferred,
+            ),
+        }),
+        t if t.is_integer() => Ok(match stated()? {
+            Some((s, source)) => (TimeEncoding::IntegerTicks { seconds_per_tick: s }, source),
+            None => (
+                TimeEncoding::IntegerTicks {
+                    seconds_per_tick: 1.0,
+                },
+                TimeUnitSource::Inferred,
+            ),
+        }),
         t => Err(bad(format!(
-            "time column has type {t}; expected an Arrow timestamp or seconds as floating point"
+            "time column has type {t}; expected an Arrow timestamp, or numbers with a unit \
+             (field metadata unit or --time-unit s|ms|us|ns)"
         ))),
     }
 }
 
-fn seconds_per(unit: &TimeUnit) -> f64 {
+/// A rate to six significant digits, trailing zeros dropped: `100 Hz`, `207.012 Hz`.
+pub fn rate_text(hz: f64) -> String {
+    if !hz.is_finite() || hz == 0.0 {
+        return format!("{hz} Hz");
+    }
+    let digits = (5 - hz.abs().log10().floor() as i32).max(0) as usize;
+    let text = format!("{hz:.digits$}");
+    let text = if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        text
+    };
+    format!("{text} Hz")
+}
+
+/// Sample rates an inertial sensor plausibly records at, Hz: what an unstated time unit is judged
+/// by. Four decades, so at most two of the units s/ms/us/ns (a factor 1000 apart) can fall inside.
+pub const PLAUSIBLE_RATE_HZ: (f64, f64) = (1.0, 1e4);
+
+/// Settles the unit of a time column whose unit nobody stated, from its median interval in stored
+/// units and, when the file or `--rate` gives one, the sample rate.
+///
+/// Rules, in order: a float column holding fractional values is seconds, the long-standing
+/// convention (with a note when that rate is implausible); a float column of whole numbers in a
+/// typed format (Arrow, Parquet) is seconds too, since its writer chose floats; otherwise a rate from
+/// elsewhere picks the unit that agrees with it;
+/// otherwise the unit is inferred only when exactly one of s, ms, us, ns gives a rate in
+/// [`PLAUSIBLE_RATE_HZ`]. Anything else is refused with a message that names `--time-unit`.
+/// Returns the spec with its unit settled and, when inferred, a note saying so.
+pub fn resolve_time_unit(
+    path: &Path,
+    spec: &TimeSpec,
+    median_interval: f64,
+    fractional: bool,
+    typed_format: bool,
+    known_rate_hz: Option<f64>,
+) -> Result<(TimeSpec, Option<String>), InputError> {
+    if spec.unit_source != TimeUnitSource::Inferred {
+        return Ok((spec.clone(), None));
+    }
+    let settle = |s: f64, source: TimeUnitSource| TimeSpec {
+        encoding: spec.encoding.with_seconds_per_unit(s),
+        unit_source: source,
+        ..spec.clone()
+    };
+    let is_float = matches!(spec.encoding, TimeEncoding::Float { .. });
+    let rate = |u: TimeUnit| 1.0 / (median_interval * u.seconds());
+    let implied = TimeUnit::ALL
+        .iter()
+        .map(|&u| format!("{u}: {}", rate_text(rate(u))))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let refuse = |why: String| InputError::BadMetadata {
+        path: path.to_path_buf(),
+        column: spec.name.clone(),
+        message: format!(
+            "{why}; give the unit with --time-unit s|ms|us|ns (the rates each unit implies: {implied})"
+        ),
+    };
+    if !(median_interval.is_finite() && median_interval > 0.0) {
+        return Err(refuse("the time column has no usable intervals to judge its unit by".into()));
+    }
+    if is_float && (fractional || typed_format) {
+        // Fractional values are seconds, and so are floats in a typed format, whose writer chose
+        // floats over integer ticks; an implausible rate is said, not
+        // reinterpreted (20 kHz in seconds would otherwise become 20 Hz in milliseconds).
+        let r = rate(TimeUnit::S);
+        let note = (r < PLAUSIBLE_RATE_HZ.0 || r > PLAUSIBLE_RATE_HZ.1).then(|| {
+            format!(
+                "time column {:?} read as seconds gives {}, outside the usual IMU rates; give \
+                 --time-unit if it is not in seconds",
+                spec.name,
+                rate_text(r)
+            )
+        });
+        return Ok((settle(1.0, TimeUnitSource::FloatSeconds), note));
+    }
+    if let Some(known) = known_rate_hz {
+        if let Some(&u) = TimeUnit::ALL
+            .iter()
+            .find(|&&u| (rate(u) / known - 1.0).abs() <= super::RATE_TOLERANCE)
+        {
+            let note = format!(
+                "time column {:?} has no unit: read as {u}, the unit that agrees with the stated rate \
+                 of {} (--time-unit overrides)",
+                spec.name,
+                rate_text(known)
+            );
+            return Ok((settle(u.seconds(), TimeUnitSource::Inferred), Some(note)));
+        }
+    }
+    let plausible: Vec<TimeUnit> = TimeUnit::ALL
+        .iter()
+        .copied()
+        .filter(|&u| rate(u) >= PLAUSIBLE_RATE_HZ.0 && rate(u) <= PLAUSIBLE_RATE_HZ.1)
+        .collect();
+    match plausible.as_slice() {
+        [u] => {
+            let note = format!(
+                "time column {:?} has no unit: read as {u} (the only unit giving a plausible IMU rate, {}; \
+                 --time-unit overrides)",
+                spec.name,
+                rate_text(rate(*u))
+            );
+            Ok((settle(u.seconds(), TimeUnitSource::Inferred), Some(note)))
+        }
+        [] => Err(refuse(format!(
+            "the time column has no unit and no unit gives a rate between {} and {} Hz",
+            PLAUSIBLE_RATE_HZ.0, PLAUSIBLE_RATE_HZ.1
+        ))),
+        several => Err(refuse(format!(
+            "the time column has no unit and it is ambiguous ({} all give plausible rates)",
+            several
+                .iter()
+                .map(|u| u.as_str())
+                .collect::<Vec<_>>()
+                .join(" and ")
+        ))),
+    }
+}
+
+fn seconds_per(unit: &ArrowTimeUnit) -> f64 {
     match unit {
-        TimeUnit::Second => 1.0,
-        TimeUnit::Millisecond => 1e-3,
-        TimeUnit::Microsecond => 1e-6,
-        TimeUnit::Nanosecond => 1e-9,
+        ArrowTimeUnit::Second => 1.0,
+        ArrowTimeUnit::Millisecond => 1e-3,
+        ArrowTimeUnit::Microsecond => 1e-6,
+        ArrowTimeUnit::Nanosecond => 1e-9,
     }
 }
 
@@ -202,6 +440,31 @@ fn column_list(schema: &Schema) -> String {
         .map(|f| f.name().as_str())
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// Every column named by `--unit` or `--kind` must exist: a flag that names a misspelt column and is
+/// silently ignored leaves the user believing a unit was applied.
+pub fn check_override_columns(
+    path: &Path,
+    schema: &Schema,
+    overrides: &ColumnOverrides,
+) -> Result<(), InputError> {
+    let named = overrides
+        .units
+        .iter()
+        .map(|(c, _)| ("--unit", c))
+        .chain(overrides.kinds.iter().map(|(c, _)| ("--kind", c)));
+    for (flag, column) in named {
+        if column != "*" && schema.index_of(column).is_err() {
+            return Err(InputError::UnknownFlagColumn {
+                path: path.to_path_buf(),
+                flag,
+                column: column.clone(),
+                available: column_list(schema),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The channels to analyse, in order.

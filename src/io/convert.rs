@@ -50,6 +50,7 @@ pub fn append_samples(array: &ArrayRef, factor: f64, offset: f64, out: &mut Vec<
 pub struct TimeDecoder {
     encoding: TimeEncoding,
     origin_ticks: Option<i64>,
+    /// The first value of a float column, in its stored units.
     origin_seconds: Option<f64>,
 }
 
@@ -65,13 +66,15 @@ impl TimeDecoder {
     /// Appends seconds since the first timestamp; false for an unexpected array type.
     pub fn append(&mut self, array: &ArrayRef, out: &mut Vec<f64>) -> bool {
         match self.encoding {
-            TimeEncoding::Seconds => {
+            TimeEncoding::Float { seconds_per_unit } => {
+                // The first value is subtracted in stored units, before scaling: epoch milliseconds
+                // (~1.7e12) scaled first would keep only ~0.2 µs of resolution.
                 let start = out.len();
                 let ok = append_samples(array, 1.0, 0.0, out);
                 if let Some(&first) = out[start..].iter().find(|v| v.is_finite()) {
                     let origin = *self.origin_seconds.get_or_insert(first);
                     for v in &mut out[start..] {
-                        *v -= origin;
+                        *v = (*v - origin) * seconds_per_unit;
                     }
                 }
                 ok

@@ -15,8 +15,32 @@ pub enum InputError {
     Unreadable { path: PathBuf, message: String },
     #[error("{path}: file is empty")]
     Empty { path: PathBuf },
-    #[error("{path}: not a recognised format (expected .arrow/.feather/.ipc, .arrows, .parquet or .csv)")]
+    #[error("{path}: not a recognised format (expected .arrow/.feather/.ipc, .arrows, .parquet, .csv or .mcap)")]
     UnknownFormat { path: PathBuf },
+    #[error("{path}: {what} is not a format imunoise reads; {advice}")]
+    UnsupportedFormat {
+        path: PathBuf,
+        what: &'static str,
+        /// How to convert it into one imunoise reads.
+        advice: String,
+    },
+    #[error("{path}: no IMU topic (sensor_msgs/msg/Imu, CDR or ROS 1 encoded) in this MCAP file; its topics: {topics}")]
+    NoImuTopic { path: PathBuf, topics: String },
+    #[error("{path}: several IMU topics ({imu_topics}); choose one with --topic")]
+    AmbiguousTopic { path: PathBuf, imu_topics: String },
+    #[error("{path}: --topic {topic:?} is not an IMU topic of this file (IMU topics: {imu_topics}; all topics: {topics})")]
+    UnknownTopic {
+        path: PathBuf,
+        topic: String,
+        imu_topics: String,
+        topics: String,
+    },
+    #[error("{path}: IMU topic {topic:?} cannot be analysed: {reason}")]
+    UnusableTopic {
+        path: PathBuf,
+        topic: String,
+        reason: String,
+    },
     #[error("{path}: corrupt or truncated {format} file{}: {message}", at_row(*.row))]
     Corrupt {
         path: PathBuf,
@@ -93,6 +117,21 @@ pub enum InputError {
         rate_hz: f64,
         source_name: String,
     },
+    #[error("{path}: no gyro or accelerometer channel to fit (channels: {channels}); give units with --unit COLUMN=UNIT (e.g. --unit gyro_x=deg/s) or kinds with --kind COLUMN=gyro|accel")]
+    NoInertialChannel { path: PathBuf, channels: String },
+    #[error("{path}: {flag} names column {column:?}, which is not in the file (columns: {available})")]
+    UnknownFlagColumn {
+        path: PathBuf,
+        flag: &'static str,
+        column: String,
+        available: String,
+    },
+    #[error("{path}: {flag}: {message}")]
+    OptionOutOfRange {
+        path: PathBuf,
+        flag: &'static str,
+        message: String,
+    },
     #[error("{path}: {what} needs at least {needed} samples, the recording has {available}")]
     TooShort {
         path: PathBuf,
@@ -115,6 +154,11 @@ impl InputError {
             | Unreadable { path, .. }
             | Empty { path }
             | UnknownFormat { path }
+            | UnsupportedFormat { path, .. }
+            | NoImuTopic { path, .. }
+            | AmbiguousTopic { path, .. }
+            | UnknownTopic { path, .. }
+            | UnusableTopic { path, .. }
             | Corrupt { path, .. }
             | NoNumericColumn { path, .. }
             | UnknownColumn { path, .. }
@@ -127,6 +171,9 @@ impl InputError {
             | RateConflict { path, .. }
             | NoRate { path }
             | InvalidRate { path, .. }
+            | NoInertialChannel { path, .. }
+            | OptionOutOfRange { path, .. }
+            | UnknownFlagColumn { path, .. }
             | TooShort { path, .. } => path,
         }
     }
@@ -136,6 +183,7 @@ impl InputError {
         use InputError::*;
         match self {
             UnknownColumn { column, .. }
+            | UnknownFlagColumn { column, .. }
             | UnsupportedType { column, .. }
             | BadMetadata { column, .. }
             | NonFinite { column, .. }

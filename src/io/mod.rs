@@ -1,5 +1,5 @@
-//! Reading recordings: Arrow IPC file and stream, Parquet and CSV, in record batches with only the
-//! needed columns decoded.
+//! Reading recordings: Arrow IPC file and stream, Parquet, CSV and MCAP (ROS 2 bags, one IMU topic), in
+//! record batches with only the needed columns decoded.
 //!
 //! [`open`] reads the schema, picks the channels and the time column and settles the sample rate;
 //! [`Recording::blocks`] then streams the samples, converted to SI, block by block. Nothing here holds a
@@ -10,6 +10,7 @@ mod channels;
 mod convert;
 mod error;
 mod format;
+mod mcap;
 mod write;
 
 use std::path::{Path, PathBuf};
@@ -18,9 +19,12 @@ use arrow_schema::SchemaRef;
 use serde::Serialize;
 
 pub use batches::{split_header_unit, DEFAULT_BATCH_ROWS};
-pub use channels::{ChannelSpec, ColumnOverrides, TimeEncoding, TimeSpec};
+pub use channels::{
+    rate_text, ChannelSpec, ColumnOverrides, TimeEncoding, TimeSpec, TimeUnit, TimeUnitSource,
+    PLAUSIBLE_RATE_HZ,
+};
 pub use error::InputError;
-pub use format::Format;
+pub use format::{Format, Unsupported};
 pub use write::{write_recording, ColumnOut, StoredAs};
 
 use batches::Batches;
@@ -44,6 +48,9 @@ pub struct OpenOptions {
     pub rate_hz: Option<f64>,
     /// Rows per record batch, for the formats that let the reader choose.
     pub batch_rows: usize,
+    /// `--topic`: the IMU topic of an MCAP file (needed only when it has several). An error for
+    /// other formats, rather than silently ignored.
+    pub topic: Option<String>,
 }
 
 impl Default for OpenOptions {
@@ -52,6 +59,7 @@ impl Default for OpenOptions {
             columns: ColumnOverrides::default(),
             rate_hz: None,
             batch_rows: DEFAULT_BATCH_ROWS,
+            topic: None,
         }
     }
 }
@@ -82,6 +90,8 @@ pub struct Recording {
     pub rate_source: RateSource,
     /// The rate the time column implies, when there is one (kept to report clock offsets).
     pub rate_from_time_hz: Option<f64>,
+    /// What was decided on the user's behalf while opening (an inferred time unit), to be shown.
+    pub notes: Vec<String>,
     #[serde(skip)]
     batch_rows: usize,
 }
@@ -94,12 +104,27 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Recording, InputError>
             path: path.to_path_buf(),
         });
     }
+    if let Some(kind) = Unsupported::detect(path) {
+        return Err(InputError::UnsupportedFormat {
+            path: path.to_path_buf(),
+            what: kind.what(),
+            advice: kind.advice(path),
+        });
+    }
     let format = Format::from_extension(path)
         .or_else(|| Format::sniff(path))
         .ok_or_else(|| InputError::UnknownFormat {
             path: path.to_path_buf(),
         })?;
-    let schema = batches::read_schema(path, format)?;
+    if options.topic.is_some() && format != Format::Mcap {
+        return Err(InputError::OptionOutOfRange {
+            path: path.to_path_buf(),
+            flag: "--topic",
+            message: format!("applies to MCAP files only (this one is read as {format})"),
+        });
+    }
+    let schema = batches::read_schema(path, format, options.topic.as_deref())?;
+    channels::check_override_columns(path, &schema, &options.columns)?;
     let time = channels::find_time(path, &schema, &options.columns)?;
     let channels = channels::select_channels(path, &schema, time.as_ref(), &options.columns)?;
     let batch_rows = options.batch_rows.max(1);
@@ -108,13 +133,38 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Recording, InputError>
         Some(text) => Some(parse_rate(path, text, "schema metadata sample_rate_hz")?),
         None => None,
     };
-    let from_time = match &time {
-        Some(spec) => rate_from_time(path, format, &schema, spec, batch_rows)?,
-        None => None,
-    };
     if let Some(r) = options.rate_hz {
         check_rate(path, r, "--rate")?;
     }
+    let mut notes = Vec::new();
+    if format == Format::Mcap {
+        notes.push(mcap::describe(&schema));
+    }
+    let (time, from_time) = match time {
+        Some(spec) => match probe_time(path, format, &schema, &spec, batch_rows)? {
+            Some(probe) => {
+                let typed = !matches!(format, Format::Csv);
+                let (spec, note) = channels::resolve_time_unit(
+                    path,
+                    &spec,
+                    probe.median,
+                    probe.fractional,
+                    typed,
+                    from_metadata.or(options.rate_hz),
+                )?;
+                notes.extend(note);
+                let per_unit = spec.encoding.seconds_per_unit();
+                let rate = check_rate(
+                    path,
+                    1.0 / (probe.mean_near_median * per_unit),
+                    &format!("time column {:?}", spec.name),
+                )?;
+                (Some(spec), Some(rate))
+            }
+            None => (Some(spec), None),
+        },
+        None => (None, None),
+    };
     let candidates = [
         (from_metadata, RateSource::Metadata, "schema metadata says"),
         (from_time, RateSource::TimeColumn, "the time column implies"),
@@ -150,6 +200,7 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Recording, InputError>
         rate_hz,
         rate_source,
         rate_from_time_hz: from_time,
+        notes,
         batch_rows,
     })
 }
@@ -171,15 +222,26 @@ fn parse_rate(path: &Path, text: &str, source: &str) -> Result<f64, InputError> 
     check_rate(path, rate, source)
 }
 
-/// The rate implied by the first timestamps, or `None` when there are fewer than two usable ones
-/// (the quality stage then reports what is wrong with the time column, row by row).
-fn rate_from_time(
+/// The intervals of the first timestamps, in the time column's stored units.
+struct TimeProbe {
+    median: f64,
+    /// Mean of the intervals within ±50 % of the median: robust to gaps and to timestamps rounded
+    /// coarser than the sample period.
+    mean_near_median: f64,
+    /// Whether any value (after the first is subtracted) has a fractional part.
+    fractional: bool,
+}
+
+/// Probes the first timestamps; `None` when there are fewer than two usable ones (the quality stage
+/// then reports what is wrong with the time column, row by row).
+fn probe_time(
     path: &Path,
     format: Format,
     schema: &SchemaRef,
     spec: &TimeSpec,
     batch_rows: usize,
-) -> Result<Option<f64>, InputError> {
+) -> Result<Option<TimeProbe>, InputError> {
+    let per_unit = spec.encoding.seconds_per_unit();
     let mut decoder = TimeDecoder::new(spec);
     let mut times = Vec::new();
     for batch in batches::open_batches(path, format, schema, &[spec.column], batch_rows)? {
@@ -188,9 +250,13 @@ fn rate_from_time(
             break;
         }
     }
+    let fractional = times.iter().any(|&t| {
+        let units = t / per_unit;
+        units.is_finite() && (units - units.round()).abs() > 1e-6
+    });
     let mut dt: Vec<f64> = times
         .windows(2)
-        .map(|w| w[1] - w[0])
+        .map(|w| (w[1] - w[0]) / per_unit)
         .filter(|d| d.is_finite() && *d > 0.0)
         .collect();
     if dt.is_empty() {
@@ -203,8 +269,12 @@ fn rate_from_time(
         .copied()
         .filter(|d| *d > 0.5 * median && *d < 1.5 * median)
         .collect();
-    let mean = near.iter().sum::<f64>() / near.len() as f64;
-    check_rate(path, 1.0 / mean, &format!("time column {:?}", spec.name)).map(Some)
+    let mean_near_median = near.iter().sum::<f64>() / near.len() as f64;
+    Ok(Some(TimeProbe {
+        median,
+        mean_near_median,
+        fractional,
+    }))
 }
 
 /// A block of consecutive rows: one `Vec` per channel (SI units) and, when the file has one, the time

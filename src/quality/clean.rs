@@ -7,13 +7,20 @@
 use std::path::PathBuf;
 
 use super::{
-    ChannelQuality, ChannelStats, Gap, GapPolicy, NonFinitePolicy, QualityOptions, QualityReport,
-    MAX_LISTED_GAPS,
+    verdicts, ChannelQuality, ChannelStats, Gap, GapPolicy, NonFinitePolicy, QualityOptions,
+    QualityReport, TimeJitter, MAX_LISTED_GAPS,
 };
+use crate::io::ChannelSpec;
 use crate::io::{Block, InputError, Recording};
 
-/// An interval longer than this many sample periods is a gap.
-const GAP_FACTOR: f64 = 1.5;
+/// Gain of the loop that tracks the sample grid: each timestamp pulls the grid by this share of its
+/// deviation, so the grid follows clock drift (a rate off by 0.1 % lags by 0.064 periods) while one
+/// late or early timestamp moves it by under 2 % of its jitter.
+const GRID_GAIN: f64 = 1.0 / 64.0;
+
+/// Jitter (largest deviation from the grid, in periods) beyond which a missing sample can no longer
+/// be told from a late one: the report says so.
+pub const JITTER_AMBIGUOUS_PERIODS: f64 = 0.35;
 
 /// Clean samples ready for the estimators: one `Vec` per channel, all of the same length.
 #[derive(Debug, Clone, Default)]
@@ -42,10 +49,16 @@ struct Run {
 pub struct Cleaner {
     path: PathBuf,
     names: Vec<String>,
+    specs: Vec<ChannelSpec>,
     time_name: String,
     period_s: f64,
     options: QualityOptions,
     previous_time: Option<f64>,
+    /// Where the grid of sample instants puts the previous row, seconds.
+    grid_time: Option<f64>,
+    jitter_sq: f64,
+    jitter_max: f64,
+    jitter_count: u64,
     /// The last row handed on (for filling gaps), raw values.
     previous_row: Option<Vec<f64>>,
     pending: Vec<Vec<f64>>,
@@ -70,6 +83,7 @@ impl Cleaner {
         Cleaner {
             path: recording.path.clone(),
             names: recording.channel_names(),
+            specs: recording.channels.clone(),
             time_name: recording
                 .time
                 .as_ref()
@@ -78,6 +92,10 @@ impl Cleaner {
             period_s: 1.0 / recording.rate_hz,
             options,
             previous_time: None,
+            grid_time: None,
+            jitter_sq: 0.0,
+            jitter_max: 0.0,
+            jitter_count: 0,
             previous_row: None,
             pending: vec![Vec::new(); n],
             runs: vec![Run::default(); n],
@@ -149,6 +167,14 @@ impl Cleaner {
             missing_samples: self.missing,
             filled_samples: self.filled,
             dropped_rows: self.dropped,
+            time_jitter: (self.jitter_count > 0).then(|| {
+                let rms_s = (self.jitter_sq / self.jitter_count as f64).sqrt();
+                TimeJitter {
+                    rms_s,
+                    max_s: self.jitter_max,
+                    gaps_ambiguous: self.jitter_max > JITTER_AMBIGUOUS_PERIODS * self.period_s,
+                }
+            }),
             channels: self
                 .names
                 .iter()
@@ -158,6 +184,7 @@ impl Cleaner {
                     nonfinite_samples: self.nonfinite[c],
                     first_nonfinite_row: self.first_nonfinite[c],
                     interpolated_samples: self.interpolated[c],
+                    verdicts: verdicts(&self.specs[c], &self.stats[c].summary()),
                     summary: self.stats[c].summary(),
                 })
                 .collect(),
@@ -187,12 +214,21 @@ impl Cleaner {
                 this_s: t,
             });
         }
-        if dt <= GAP_FACTOR * self.period_s {
+        // A gap is a missing sample, judged on the grid of sample instants rather than on one interval:
+        // with ±40 % jitter an interval can be 1.8 periods long with nothing missing, and one missing
+        // sample between an early and a late timestamp can look like 1.2 periods.
+        let grid = self.grid_time.unwrap_or(p);
+        let steps = ((t - grid) / self.period_s).round().max(1.0);
+        let on_grid = grid + steps * self.period_s;
+        let deviation = t - on_grid;
+        self.grid_time = Some(on_grid + GRID_GAIN * deviation);
+        self.jitter_sq += deviation * deviation;
+        self.jitter_max = self.jitter_max.max(deviation.abs());
+        self.jitter_count += 1;
+        if steps <= 1.0 {
             return Ok(None);
         }
-        let missing = ((dt / self.period_s).round() as u64)
-            .saturating_sub(1)
-            .max(1);
+        let missing = steps as u64 - 1;
         if self.options.gaps == GapPolicy::Error {
             return Err(InputError::Gap {
                 path: self.path.clone(),

@@ -14,7 +14,10 @@ use std::str::FromStr;
 
 use serde::Serialize;
 
-pub use clean::{Cleaner, SampleChunk};
+use crate::io::ChannelSpec;
+use crate::units::Kind;
+
+pub use clean::{Cleaner, SampleChunk, JITTER_AMBIGUOUS_PERIODS};
 pub use stats::{ChannelStats, ChannelSummary};
 
 /// What to do with a NaN, ±Inf or null sample.
@@ -137,7 +140,136 @@ pub struct QualityReport {
     pub missing_samples: u64,
     pub filled_samples: u64,
     pub dropped_rows: u64,
+    /// How far timestamps stray from the grid of sample instants; `None` without a time column.
+    pub time_jitter: Option<TimeJitter>,
     pub channels: Vec<ChannelQuality>,
+}
+
+/// Timestamp jitter: each timestamp's deviation from the tracked grid of sample instants.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct TimeJitter {
+    pub rms_s: f64,
+    pub max_s: f64,
+    /// The jitter reaches [`JITTER_AMBIGUOUS_PERIODS`] of a period: a late sample and a missing one
+    /// can no longer be told apart, so the gap count may be wrong either way.
+    pub gaps_ambiguous: bool,
+}
+
+impl QualityReport {
+    /// Whether a channel can be analysed at all (see [`ChannelVerdict::analysable`]).
+    pub fn analysable(&self, channel: &str) -> bool {
+        self.channels
+            .iter()
+            .find(|c| c.name == channel)
+            .is_none_or(|c| c.verdicts.iter().all(ChannelVerdict::analysable))
+    }
+}
+
+/// Runs of identical samples at least this long, in a channel that otherwise spans many quantisation
+/// levels, mean the sensor froze: with noise of even one level, the chance of such a run is below
+/// 1e-20.
+pub const STUCK_RUN_SAMPLES: u64 = 64;
+
+/// A channel whose samples take this few levels or fewer shows its quantiser, not its noise.
+pub const FEW_LEVELS: u64 = 2;
+
+/// What the quality screen says about one channel. Each names a reason the numbers that follow may
+/// not mean what they seem.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+#[serde(tag = "verdict", rename_all = "snake_case")]
+pub enum ChannelVerdict {
+    /// Every sample is the same value: a stuck or disconnected sensor. Not analysed.
+    Stuck { value: f64 },
+    /// The samples take only one or two quantisation levels: the noise is below the resolution and
+    /// the spectrum shows the quantiser. Not analysed.
+    FewLevels { levels: u64, step: f64 },
+    /// A run of identical samples in an otherwise lively inertial channel: it froze for a while.
+    StuckRun { start_sample: u64, samples: u64 },
+    /// Many samples sit on the extreme values: a clipped (saturated) sensor.
+    PossiblySaturated {
+        samples_at_min: u64,
+        samples_at_max: u64,
+    },
+    /// No unit from the file or `--unit`: analysed as a plain number (aux), not as gyro or accel.
+    NoUnit,
+}
+
+impl ChannelVerdict {
+    /// Whether the channel's noise can be estimated and fitted at all.
+    pub fn analysable(&self) -> bool {
+        !matches!(
+            self,
+            ChannelVerdict::Stuck { .. } | ChannelVerdict::FewLevels { .. }
+        )
+    }
+
+    /// One line for a person.
+    pub fn describe(&self) -> String {
+        match self {
+            ChannelVerdict::Stuck { value } => {
+                format!("stuck: every sample is {value}; not analysed")
+            }
+            ChannelVerdict::FewLevels { levels, step } => format!(
+                "only {levels} quantisation levels (step {step:.3e}): the noise is below the \
+                 resolution; not analysed"
+            ),
+            ChannelVerdict::StuckRun {
+                start_sample,
+                samples,
+            } => format!(
+                "froze for {samples} samples from sample {start_sample} (identical values)"
+            ),
+            ChannelVerdict::PossiblySaturated {
+                samples_at_min,
+                samples_at_max,
+            } => format!(
+                "possibly saturated ({samples_at_min} samples at the minimum, {samples_at_max} at \
+                 the maximum)"
+            ),
+            ChannelVerdict::NoUnit => {
+                "no unit: analysed as aux, not as gyro or accel (give --unit COLUMN=UNIT)".into()
+            }
+        }
+    }
+}
+
+/// The verdicts for one channel from its summary.
+pub fn verdicts(spec: &ChannelSpec, summary: &ChannelSummary) -> Vec<ChannelVerdict> {
+    let mut out = Vec::new();
+    if spec.unit.is_none() {
+        out.push(ChannelVerdict::NoUnit);
+    }
+    if summary.finite_samples == 0 {
+        return out;
+    }
+    let levels = summary
+        .smallest_step
+        .map(|step| ((summary.max - summary.min) / step).round() as u64 + 1);
+    if summary.min == summary.max {
+        out.push(ChannelVerdict::Stuck { value: summary.min });
+    } else if let (Some(levels), Some(step)) = (levels, summary.smallest_step) {
+        if levels <= FEW_LEVELS {
+            out.push(ChannelVerdict::FewLevels { levels, step });
+        }
+    }
+    let inertial = matches!(spec.kind, Kind::Gyro | Kind::Accel);
+    let lively = levels.is_some_and(|l| l > 8);
+    if inertial && lively && summary.longest_repeat >= STUCK_RUN_SAMPLES {
+        out.push(ChannelVerdict::StuckRun {
+            start_sample: summary.longest_repeat_start,
+            samples: summary.longest_repeat,
+        });
+    }
+    // Saturation is judged on inertial channels only: a slow temperature sensor held at each IMU
+    // sample (MCAP temperature topics) sits on its extremes for many samples without clipping.
+    let unresolved = out.iter().any(|v| !v.analysable());
+    if inertial && summary.possibly_saturated && !unresolved {
+        out.push(ChannelVerdict::PossiblySaturated {
+            samples_at_min: summary.samples_at_min,
+            samples_at_max: summary.samples_at_max,
+        });
+    }
+    out
 }
 
 /// One channel's quality figures.
@@ -147,6 +279,8 @@ pub struct ChannelQuality {
     pub nonfinite_samples: u64,
     pub first_nonfinite_row: Option<u64>,
     pub interpolated_samples: u64,
+    /// What the screen says about the channel (empty when nothing).
+    pub verdicts: Vec<ChannelVerdict>,
     #[serde(flatten)]
     pub summary: ChannelSummary,
 }

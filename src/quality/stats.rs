@@ -15,6 +15,11 @@ pub struct ChannelStats {
     at_max: u64,
     smallest_step: f64,
     previous: Option<f64>,
+    /// Length of the current run of identical consecutive samples, and the longest so far with the
+    /// index (among finite samples) of its first sample.
+    run: u64,
+    longest_run: u64,
+    longest_run_start: u64,
 }
 
 /// The finished summary of a channel, as reported.
@@ -32,6 +37,10 @@ pub struct ChannelSummary {
     /// Smallest non-zero difference between consecutive samples: the quantisation step of an
     /// integer-coded sensor (in SI units), an upper bound of it otherwise.
     pub smallest_step: Option<f64>,
+    /// The longest run of identical consecutive samples, and where it starts (index among the finite
+    /// samples): a sensor that froze for a while.
+    pub longest_repeat: u64,
+    pub longest_repeat_start: u64,
 }
 
 /// Share of samples sitting on one extreme above which a channel is flagged as possibly saturated.
@@ -78,7 +87,17 @@ impl ChannelStats {
                 self.smallest_step = step;
             }
         }
+        self.extend_run(self.previous == Some(x));
         self.previous = Some(x);
+    }
+
+    /// Counts the sample just added (`count` already includes it) into the runs of repeats.
+    fn extend_run(&mut self, repeats: bool) {
+        self.run = if repeats { self.run + 1 } else { 1 };
+        if self.run > self.longest_run {
+            self.longest_run = self.run;
+            self.longest_run_start = self.count - self.run;
+        }
     }
 
     /// Adds a slice of finite samples at once: block mean and sum of squares by two passes, merged with
@@ -111,6 +130,16 @@ impl ChannelStats {
             .filter(|&d| d > 0.0)
             .fold(f64::INFINITY, f64::min);
         let joint = self.previous.map_or(f64::INFINITY, |p| (xs[0] - p).abs());
+        let first = self.count - xs.len() as u64;
+        let mut previous = self.previous;
+        for (i, &x) in xs.iter().enumerate() {
+            self.run = if previous == Some(x) { self.run + 1 } else { 1 };
+            if self.run > self.longest_run {
+                self.longest_run = self.run;
+                self.longest_run_start = first + i as u64 + 1 - self.run;
+            }
+            previous = Some(x);
+        }
         for step in [inner, joint] {
             if step > 0.0 && step < self.smallest_step {
                 self.smallest_step = step;
@@ -139,6 +168,8 @@ impl ChannelStats {
                 && !constant
                 && (self.at_min >= threshold || self.at_max >= threshold),
             smallest_step: self.smallest_step.is_finite().then_some(self.smallest_step),
+            longest_repeat: self.longest_run,
+            longest_repeat_start: self.longest_run_start,
         }
     }
 }
@@ -195,6 +226,25 @@ mod tests {
             (b.min, b.max, b.samples_at_min, b.samples_at_max)
         );
         assert!((a.smallest_step.unwrap() - b.smallest_step.unwrap()).abs() < 1e-15);
+        assert_eq!(
+            (a.longest_repeat, a.longest_repeat_start),
+            (b.longest_repeat, b.longest_repeat_start)
+        );
+    }
+
+    #[test]
+    fn longest_repeat_is_found_across_slices() {
+        let mut xs: Vec<f64> = (0..3000).map(|i| ((i * 7919) % 101) as f64).collect();
+        for x in &mut xs[1000..1250] {
+            *x = 7.5;
+        }
+        let mut one = ChannelStats::new();
+        xs.iter().for_each(|&x| one.push(x));
+        let mut blocks = ChannelStats::new();
+        xs.chunks(97).for_each(|c| blocks.push_slice(c));
+        for s in [one.summary(), blocks.summary()] {
+            assert_eq!((s.longest_repeat, s.longest_repeat_start), (250, 1000));
+        }
     }
 
     #[test]

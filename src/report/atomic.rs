@@ -15,15 +15,24 @@ where
     E: std::fmt::Display,
 {
     let tmp = temporary_name(path);
+    // Errors name the file the user asked for, never the temporary one.
+    let fail = |e: &dyn std::fmt::Display| OutputError::new(path, e);
     let result = (|| {
-        let file = File::create(&tmp).map_err(|e| OutputError::new(&tmp, e))?;
+        let file = File::create(&tmp).map_err(|e| {
+            let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+            match parent {
+                Some(dir) if !dir.is_dir() => OutputError::new(
+                    path,
+                    format!("the folder {} does not exist", dir.display()),
+                ),
+                _ => fail(&e),
+            }
+        })?;
         let mut out = BufWriter::new(file);
-        write(&mut out).map_err(|e| OutputError::new(&tmp, e))?;
-        out.flush().map_err(|e| OutputError::new(&tmp, e))?;
-        out.get_ref()
-            .sync_all()
-            .map_err(|e| OutputError::new(&tmp, e))?;
-        fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))
+        write(&mut out).map_err(|e| fail(&e))?;
+        out.flush().map_err(|e| fail(&e))?;
+        out.get_ref().sync_all().map_err(|e| fail(&e))?;
+        fs::rename(&tmp, path).map_err(|e| fail(&e))
     })();
     if result.is_err() {
         let _ = fs::remove_file(&tmp);
@@ -76,5 +85,15 @@ mod tests {
         assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
         write_atomically(&path, |w| w.write_all(b"new")).unwrap();
         assert_eq!(fs::read_to_string(&path).unwrap(), "new");
+    }
+
+    #[test]
+    fn a_missing_folder_is_named_not_the_temporary_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("nowhere").join("out.arrow");
+        let err = write_atomically(&path, |w| w.write_all(b"x")).unwrap_err();
+        let text = err.to_string();
+        assert!(text.contains("out.arrow") && text.contains("does not exist"), "{text}");
+        assert!(!text.contains(".out.arrow."), "{text}");
     }
 }

@@ -33,7 +33,7 @@ use crate::units::Unit;
 use crate::Error;
 
 /// Version of the JSON document and table layout; bumped on any incompatible change.
-pub const SCHEMA_VERSION: u32 = 3;
+pub const SCHEMA_VERSION: u32 = 4;
 
 /// Output formats for tables and the document.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -212,6 +212,9 @@ pub fn file_json(r: &FileResult) -> Value {
             "rate_source": rec.rate_source,
             "rate_from_time_hz": rec.rate_from_time_hz,
             "time_column": rec.time.as_ref().map(|t| t.name.clone()),
+            "time_seconds_per_unit": rec.time.as_ref().map(|t| t.encoding.seconds_per_unit()),
+            "time_unit_source": rec.time.as_ref().map(|t| t.unit_source),
+            "notes": rec.notes,
             "rows": r.quality.rows_read,
             "samples": r.quality.samples_out,
             "duration_s": r.quality.duration_s,

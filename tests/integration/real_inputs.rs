@@ -1,0 +1,407 @@
+//! Inputs as real users bring them: time columns in milliseconds, jittery timestamps, stuck sensors,
+//! files without units, and flags that name columns or values that do not fit the file. Each case
+//! once went through silently with a wrong reading; each must now be read right or refused with a
+//! message naming the flag, file, column or row.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use arrow_array::{Float64Array, Int64Array, RecordBatch};
+use arrow_schema::{DataType, Field, Schema};
+use imunoise::io::{self, ColumnOverrides, OpenOptions, TimeUnit, TimeUnitSource};
+use imunoise::pipeline::{self, Inputs, Silent, Work};
+use imunoise::quality::{ChannelVerdict, GapPolicy, QualityOptions};
+
+use super::support::*;
+
+fn stderr(out: &std::process::Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// CSV text with an integer time column `t` in the given ticks and one gyro column.
+fn csv_with_ticks(path: &Path, ticks: &[i64], values: &[f64]) {
+    let mut s = String::from("t,gx [deg/s]\n");
+    for (t, v) in ticks.iter().zip(values) {
+        s.push_str(&format!("{t},{v:?}\n"));
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+fn open_with(path: &Path, columns: ColumnOverrides, rate_hz: Option<f64>) -> io::Recording {
+    io::open(
+        path,
+        &OpenOptions {
+            columns,
+            rate_hz,
+            ..Default::default()
+        },
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn integer_milliseconds_in_csv_are_inferred_and_said_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("ms.csv");
+    let n = 2000;
+    // 100 Hz from a Unix epoch in milliseconds.
+    let ticks: Vec<i64> = (0..n).map(|i| 1_700_000_000_000 + 10 * i as i64).collect();
+    csv_with_ticks(&p, &ticks, &noise(n, 1));
+    let rec = open_with(&p, ColumnOverrides::default(), None);
+    assert!((rec.rate_hz - 100.0).abs() < 1e-9, "{}", rec.rate_hz);
+    let time = rec.time.as_ref().unwrap();
+    assert_eq!(time.unit_source, TimeUnitSource::Inferred);
+    assert_eq!(time.encoding.seconds_per_unit(), 1e-3);
+    assert!(
+        rec.notes.iter().any(|n| n.contains("ms") && n.contains("--time-unit")),
+        "{:?}",
+        rec.notes
+    );
+    // The flag says it outright: no inference, no note.
+    let rec = open_with(
+        &p,
+        ColumnOverrides {
+            time_unit: Some(TimeUnit::Ms),
+            ..Default::default()
+        },
+        None,
+    );
+    assert_eq!(rec.time.as_ref().unwrap().unit_source, TimeUnitSource::Flag);
+    assert!(rec.notes.is_empty());
+    assert!((rec.rate_hz - 100.0).abs() < 1e-9);
+}
+
+#[test]
+fn an_ambiguous_time_unit_is_refused_naming_the_flag_and_a_stated_rate_settles_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("ambiguous.csv");
+    // Whole numbers one apart: 1 Hz in seconds or 1 kHz in milliseconds.
+    let ticks: Vec<i64> = (0..500).collect();
+    csv_with_ticks(&p, &ticks, &noise(500, 2));
+    let err = io::open(&p, &OpenOptions::default()).unwrap_err().to_string();
+    assert!(
+        err.contains("--time-unit") && err.contains("\"t\"") && err.contains("ambiguous"),
+        "{err}"
+    );
+    let rec = open_with(&p, ColumnOverrides::default(), Some(1000.0));
+    assert_eq!(rec.time.as_ref().unwrap().encoding.seconds_per_unit(), 1e-3);
+    assert!((rec.rate_hz - 1000.0).abs() < 1e-9);
+}
+
+#[test]
+fn an_arrow_integer_time_column_without_unit_is_inferred_from_its_intervals() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("us.arrow");
+    let n = 3000;
+    // 200 Hz in microseconds: only "us" gives a rate between 1 Hz and 10 kHz.
+    let t: Vec<i64> = (0..n).map(|i| 5000 * i as i64).collect();
+    let schema = Schema::new(vec![
+        Field::new("time", DataType::Int64, false),
+        Field::new("gx", DataType::Float64, false).with_metadata(
+            std::collections::HashMap::from([("unit".to_string(), "rad/s".to_string())]),
+        ),
+    ]);
+    let b = RecordBatch::try_new(
+        Arc::new(schema),
+        vec![
+            Arc::new(Int64Array::from(t)),
+            Arc::new(Float64Array::from(noise(n, 3))),
+        ],
+    )
+    .unwrap();
+    write_ipc_file(&p, &b, 1000);
+    let rec = open_with(&p, ColumnOverrides::default(), None);
+    assert!((rec.rate_hz - 200.0).abs() < 1e-9, "{}", rec.rate_hz);
+    assert_eq!(rec.time.as_ref().unwrap().encoding.seconds_per_unit(), 1e-6);
+}
+
+fn screen(path: &Path, gaps: GapPolicy) -> pipeline::FileResult {
+    let inputs = Inputs {
+        open: OpenOptions::default(),
+        quality: QualityOptions {
+            gaps,
+            ..Default::default()
+        },
+    };
+    pipeline::run(
+        path,
+        &inputs,
+        &Work::default(),
+        &imunoise::estimate::CpuBackend,
+        &Silent,
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Timestamps at 100 Hz, each off its instant by up to ±`jitter_ms`, with `drop` rows removed.
+fn jittery(path: &Path, n: usize, jitter_ms: f64, drop: &[usize]) {
+    let u = noise(n, 9);
+    let keep: Vec<usize> = (0..n).filter(|i| !drop.contains(i)).collect();
+    let t: Vec<i64> = keep
+        .iter()
+        .map(|&i| {
+            // A bounded jitter: the normal deviate folded into ±1.
+            let e = (u[i] * 0.7).tanh();
+            ((i as f64 * 10.0 + e * jitter_ms) * 1e6).round() as i64
+        })
+        .collect();
+    let g = noise(n, 10);
+    let gx: Vec<f64> = keep.iter().map(|&i| g[i]).collect();
+    let b = batch(
+        &[
+            time_col(keep.len(), 1.0, |k, _| t[k]),
+            f64_col("gx", gx, Some("deg/s")),
+        ],
+        Some(100.0),
+    );
+    write_ipc_file(path, &b, 4096);
+}
+
+#[test]
+fn jitter_is_not_a_gap_and_a_missing_sample_among_jitter_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let clean = dir.path().join("jitter.arrow");
+    // ±4 ms at 100 Hz: single intervals from 2 to 18 ms, yet no sample is missing.
+    jittery(&clean, 30_000, 4.0, &[]);
+    let r = screen(&clean, GapPolicy::Error);
+    assert_eq!(r.quality.gap_count, 0);
+    let j = r.quality.time_jitter.unwrap();
+    assert!(
+        j.max_s > 2e-3 && j.max_s < 4.5e-3 && j.rms_s > 5e-4,
+        "{j:?}"
+    );
+    assert!(j.gaps_ambiguous, "±4 ms is 0.4 periods: gaps are ambiguous");
+
+    let holes = dir.path().join("holes.arrow");
+    // Three samples missing at row 10 000 and one at 20 000, under ±2 ms jitter.
+    jittery(&holes, 30_000, 2.0, &[10_000, 10_001, 10_002, 20_000]);
+    let r = screen(&holes, GapPolicy::Fill);
+    assert_eq!(r.quality.gap_count, 2, "{:?}", r.quality.gaps);
+    assert_eq!(r.quality.missing_samples, 4);
+    assert_eq!(r.quality.filled_samples, 4);
+    assert_eq!(r.quality.samples_out, 30_000);
+    assert!(!r.quality.time_jitter.unwrap().gaps_ambiguous);
+}
+
+#[test]
+fn stuck_and_unresolved_channels_are_named_and_not_fitted() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("stuck.arrow");
+    let n = 40_000;
+    let rate = 100.0;
+    let lively = noise(n, 21).iter().map(|x| x * 0.01).collect::<Vec<_>>();
+    let mut froze = noise(n, 22).iter().map(|x| x * 0.01).collect::<Vec<_>>();
+    let held = froze[5000];
+    froze[5000..5300].fill(held);
+    let b = batch(
+        &[
+            time_col(n, rate, |_, t| t),
+            f64_col("gx", lively, Some("deg/s")),
+            f64_col("gy", vec![0.25; n], Some("deg/s")),
+            f64_col(
+                "gz",
+                (0..n).map(|i| if i % 7 == 0 { 0.01 } else { 0.0 }).collect(),
+                Some("deg/s"),
+            ),
+            f64_col("ax", froze, Some("m/s^2")),
+            f64_col("label", noise(n, 23), None),
+        ],
+        Some(rate),
+    );
+    write_ipc_file(&p, &b, 8192);
+    let work = Work {
+        welch: Some(pipeline::WelchWork {
+            plan: imunoise::psd::WelchConfig::new(1024).validate().unwrap(),
+            bins_per_decade: Some(20),
+        }),
+        avar: Some(pipeline::AvarWork {
+            statistics: vec![imunoise::avar::Statistic::Oadev],
+            taus: pipeline::TauSpec::Grid(imunoise::avar::TauGrid::Octave),
+            confidence: imunoise::avar::Confidence::OneSigma,
+        }),
+        fit: Some(imunoise::model::FitOptions::default()),
+        residual_loop: true,
+    };
+    let r = pipeline::run(
+        &p,
+        &Inputs::default(),
+        &work,
+        &imunoise::estimate::CpuBackend,
+        &Silent,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let verdicts = |name: &str| {
+        r.quality
+            .channels
+            .iter()
+            .find(|c| c.name == name)
+            .unwrap()
+            .verdicts
+            .clone()
+    };
+    assert!(verdicts("gx").is_empty(), "{:?}", verdicts("gx"));
+    assert!(matches!(verdicts("gy")[..], [ChannelVerdict::Stuck { value }] if value > 0.0));
+    assert!(
+        matches!(verdicts("gz")[..], [ChannelVerdict::FewLevels { levels: 2, .. }]),
+        "{:?}",
+        verdicts("gz")
+    );
+    assert!(
+        matches!(
+            verdicts("ax")[..],
+            [ChannelVerdict::StuckRun {
+                start_sample: 5000,
+                samples: 300
+            }]
+        ),
+        "{:?}",
+        verdicts("ax")
+    );
+    assert_eq!(verdicts("label"), vec![ChannelVerdict::NoUnit]);
+    // Only the analysable inertial channels are fitted: no model, and no invented line, for the
+    // stuck or two-level ones.
+    let fitted: Vec<String> = r
+        .analysis
+        .as_ref()
+        .unwrap()
+        .iter()
+        .map(|a| a.channel.clone())
+        .collect();
+    assert_eq!(fitted, vec!["gx".to_string(), "ax".to_string()]);
+}
+
+#[test]
+fn flags_that_do_not_fit_the_file_are_refused_by_name() {
+    let root = repo_root();
+    let sample = "data/sample_imu.arrow";
+    let out = imunoise(&["info", sample, "--unit", "gyro_q=deg/s", "--json"], &root);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--unit names column \"gyro_q\""),
+        "{}",
+        stderr(&out)
+    );
+    let out = imunoise(&["psd", sample, "--bins-per-decade", "100000", "--json"], &root);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("--bins-per-decade 100000"), "{}", stderr(&out));
+    let out = imunoise(
+        &["analyze", sample, "--fit-min-freq", "80", "--json"],
+        &root,
+    );
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--fit-min-freq") && stderr(&out).contains("Nyquist"),
+        "{}",
+        stderr(&out)
+    );
+    let out = imunoise(
+        &["info", sample, "--no-time", "--on-gap", "fill", "--json"],
+        &root,
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("--on-gap fill"), "{}", stderr(&out));
+}
+
+#[test]
+fn a_file_without_units_is_not_analysed_as_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("nounits.csv");
+    write_csv(&p, &[("a", None), ("b", None)], &[noise(5000, 4), noise(5000, 5)]);
+    let out = imunoise(
+        &[
+            "analyze",
+            p.to_str().unwrap(),
+            "--rate",
+            "100",
+            "--nperseg",
+            "512",
+            "-o",
+            dir.path().join("out").to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let e = stderr(&out);
+    assert!(
+        e.contains("no gyro or accelerometer channel") && e.contains("a (no unit)") && e.contains("--unit"),
+        "{e}"
+    );
+    assert!(!dir.path().join("out").join("imu.yaml").exists());
+}
+
+#[test]
+fn simulate_wants_units_and_writes_the_format_its_extension_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| imunoise(args, dir.path());
+    let out = run(&[
+        "simulate", "--rate", "100", "--duration", "60", "--noise", "N=0.15", "-o", "x.arrow",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("give a unit"), "{}", stderr(&out));
+    let out = run(&[
+        "simulate", "--rate", "100", "--duration", "60", "--noise", "N=0.15deg/sqrt(h)", "-o",
+        "x.txt",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains(".csv"), "{}", stderr(&out));
+    let out = run(&[
+        "simulate", "--rate", "100", "--duration", "60", "--noise", "N=0.15deg/sqrt(h)", "-o",
+        "missing/x.arrow",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let e = stderr(&out);
+    assert!(e.contains("missing") && e.contains("does not exist") && !e.contains(".x.arrow."), "{e}");
+    for name in ["x.csv", "x.parquet", "x.arrows", "x.arrow"] {
+        let out = run(&[
+            "simulate", "--rate", "100", "--duration", "60", "--seed", "3", "--noise",
+            "N=0.15deg/sqrt(h)", "-o", name,
+        ]);
+        assert_eq!(out.status.code(), Some(0), "{name}: {}", stderr(&out));
+        let rec = io::open(&dir.path().join(name), &OpenOptions::default())
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!((rec.rate_hz - 100.0).abs() < 1e-6, "{name}: {}", rec.rate_hz);
+        assert_eq!(rec.channels.len(), 3, "{name}");
+        assert_eq!(
+            rec.channels[0].kind,
+            imunoise::units::Kind::Gyro,
+            "{name}"
+        );
+    }
+    let bytes = std::fs::read(dir.path().join("x.csv")).unwrap();
+    assert!(bytes.starts_with(b"time [s],gyro_x [rad/s]"), "{:?}", &bytes[..40]);
+}
+
+#[test]
+fn version_names_the_commit() {
+    let out = imunoise(&["--version"], &repo_root());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("(commit "), "{text}");
+}
+
+#[test]
+fn a_model_restricted_to_terms_that_cannot_fit_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = imunoise(
+        &[
+            "analyze",
+            "data/sample_imu.arrow",
+            "--terms",
+            "K",
+            "--no-loop",
+            "--backend",
+            "cpu",
+            "-o",
+            dir.path().to_str().unwrap(),
+        ],
+        &repo_root(),
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let e = stderr(&out);
+    for channel in ["gyro_x", "accel_x"] {
+        assert!(
+            e.lines()
+                .any(|l| l.contains(channel) && l.contains("lack of fit") && l.contains("widened")),
+            "{e}"
+        );
+    }
+}
