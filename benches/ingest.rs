@@ -14,13 +14,8 @@ const ROWS: usize = 1_000_000;
 const CHANNELS: usize = 3;
 
 fn write_file(path: &std::path::Path) {
-    let mut state = 1u64;
-    let mut next = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    let mut rng = imunoise::sim::rng::Rng::new(1);
+    let mut next = || rng.uniform() - 0.5;
     let fields: Vec<Field> = (0..CHANNELS)
         .map(|c| Field::new(format!("g{c}"), arrow_schema::DataType::Float64, false))
         .collect();

@@ -17,7 +17,7 @@ use crate::model::{
     combine, compare, detect_bandwidth, fit_avar, fit_psd, Bandwidth, Combined, FitError,
     FitOptions, NoiseFit, Sensor, TermComparison,
 };
-use crate::pipeline::{ChannelDeviations, ChannelPsd};
+use crate::estimate::{ChannelDeviations, ChannelPsd};
 
 /// One channel's fits.
 #[derive(Debug, Clone, Serialize)]

@@ -17,6 +17,7 @@ pub mod psd;
 pub mod quality;
 pub mod report;
 pub mod sim;
+pub mod stats;
 pub mod units;
 
 mod error;

@@ -11,12 +11,12 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::analysis::{self, ChannelAnalysis, ChannelInput};
-use crate::avar::{AvarError, Confidence, Deviations, Statistic, TauGrid};
+use crate::avar::{AvarError, Confidence, Statistic, TauGrid};
 use crate::effects::{AuxSeries, LoopConfig};
 use crate::estimate::Backend;
 use crate::io::{self, InputError, OpenOptions, Recording};
 use crate::model::{FitOptions, Sensor};
-use crate::psd::{log_bin, BinnedPsd, Psd, PsdError, WelchPlan};
+use crate::psd::{log_bin, PsdError, WelchPlan};
 use crate::quality::{Cleaner, QualityOptions, QualityReport};
 use crate::units::Kind;
 use crate::Error;
@@ -64,20 +64,7 @@ pub struct Inputs {
     pub quality: QualityOptions,
 }
 
-/// A channel's PSD, raw and log-binned.
-#[derive(Debug, Clone)]
-pub struct ChannelPsd {
-    pub channel: String,
-    pub psd: Psd,
-    pub binned: Option<BinnedPsd>,
-}
-
-/// A channel's Allan-family statistics, one entry per statistic asked for.
-#[derive(Debug, Clone)]
-pub struct ChannelDeviations {
-    pub channel: String,
-    pub statistics: Vec<Deviations>,
-}
+pub use crate::estimate::{ChannelDeviations, ChannelPsd};
 
 /// Wall time spent per stage, seconds.
 #[derive(Debug, Clone, Copy, Default, Serialize)]

@@ -4,7 +4,7 @@
 //! interval at probability p is [ν·σ̂²/χ²_ν(1 − q), ν·σ̂²/χ²_ν(q)] with q = (1 − p)/2 (NIST SP 1065
 //! eq. 45, the form Stable32 and allantools use).
 
-use statrs::distribution::{ChiSquared, Continuous, ContinuousCDF};
+pub use crate::stats::chi2_quantile;
 
 use super::AvarError;
 
@@ -44,62 +44,6 @@ pub fn variance_bounds(variance: f64, edf: f64, p: f64) -> (f64, f64) {
     let lo = edf * variance / chi2_quantile(1.0 - q, edf);
     let hi = edf * variance / chi2_quantile(q, edf);
     (lo, hi)
-}
-
-/// Quantile of the chi-square distribution with `nu` degrees of freedom at probability `p` in
-/// (0, 1).
-///
-/// statrs' generic `inverse_cdf` stops after a fixed small number of bisection and Newton steps,
-/// which is not accurate enough at the large EDFs of long recordings, so this starts from the
-/// Wilson–Hilferty approximation (already within ~1e-4 for ν ≥ 10) and refines it with safeguarded
-/// Newton steps on statrs' accurate CDF until the step is below 1e-15 relative.
-pub fn chi2_quantile(p: f64, nu: f64) -> f64 {
-    let Ok(dist) = ChiSquared::new(nu) else {
-        return f64::NAN;
-    };
-    // Bracket [lo, hi] with cdf(lo) < p < cdf(hi), widened from the approximation.
-    let start = wilson_hilferty(p, nu);
-    let mut x = if start.is_finite() && start > 0.0 {
-        start
-    } else {
-        nu.max(1e-3)
-    };
-    let mut lo = 0.0f64;
-    let mut hi = f64::INFINITY;
-    for _ in 0..200 {
-        let f = dist.cdf(x) - p;
-        if f == 0.0 {
-            return x;
-        }
-        if f < 0.0 {
-            lo = lo.max(x);
-        } else {
-            hi = hi.min(x);
-        }
-        let density = dist.pdf(x);
-        let mut next = x - f / density;
-        // Fall back to bisection (or doubling while no upper bound is known) when Newton leaves
-        // the bracket or the density underflows.
-        if !(next > lo && next < hi && next.is_finite()) {
-            next = if hi.is_finite() {
-                0.5 * (lo + hi)
-            } else {
-                2.0 * x.max(lo)
-            };
-        }
-        if (next - x).abs() <= 1e-15 * x.abs() {
-            return next;
-        }
-        x = next;
-    }
-    x
-}
-
-/// Wilson–Hilferty cube-root normal approximation of the chi-square quantile.
-fn wilson_hilferty(p: f64, nu: f64) -> f64 {
-    let z = std::f64::consts::SQRT_2 * statrs::function::erf::erf_inv(2.0 * p - 1.0);
-    let c = 2.0 / (9.0 * nu);
-    nu * (1.0 - c + z * c.sqrt()).powi(3)
 }
 
 #[cfg(test)]

@@ -273,13 +273,8 @@ mod tests {
     /// Seeded Gaussian noise (SplitMix64 + Box–Muller).
     fn gauss(n: usize, seed: u64) -> Vec<f64> {
         let mut state = seed;
-        let mut next = move || {
-            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = state;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next =
+            move || (crate::sim::rng::splitmix64(&mut state) >> 11) as f64 / (1u64 << 53) as f64;
         (0..n)
             .map(|_| {
                 let (u, v) = (next().max(1e-300), next());

@@ -8,7 +8,7 @@
 //! excess bins (a line's window main lobe and sidelobes, a resonance's width) form one group.
 
 use serde::Serialize;
-use statrs::distribution::{ChiSquared, ContinuousCDF};
+use crate::stats::chi2_sf;
 
 use crate::psd::Psd;
 
@@ -30,9 +30,6 @@ pub struct Excess {
     pub p_value: f64,
 }
 
-fn chi2_sf(x: f64, k: f64) -> f64 {
-    ChiSquared::new(k).map_or(1.0, |d| d.sf(x))
-}
 
 /// Groups of bins of `psd` (one-sided density) above `model_one_sided(f)`, strongest first. Bins
 /// outside [`min_freq_hz`, `max_freq_hz`], DC and Nyquist are not searched.

@@ -13,7 +13,7 @@
 //! to standard normal under the model even at few degrees of freedom.
 
 use serde::Serialize;
-use statrs::distribution::{ChiSquared, ContinuousCDF};
+use crate::stats::{chi2_sf, norm_sf};
 
 use crate::model::NoiseFit;
 
@@ -49,16 +49,6 @@ pub struct Diagnostics {
     pub structured: bool,
 }
 
-fn chi2_sf(x: f64, k: f64) -> f64 {
-    if x <= 0.0 || k <= 0.0 {
-        return 1.0;
-    }
-    ChiSquared::new(k).map_or(1.0, |d| d.sf(x))
-}
-
-fn norm_sf(z: f64) -> f64 {
-    0.5 * statrs::function::erf::erfc(z / std::f64::consts::SQRT_2)
-}
 
 /// Diagnostics of `fit`.
 pub fn diagnose(fit: &NoiseFit) -> Diagnostics {

@@ -11,9 +11,24 @@ use std::fmt;
 use serde::Serialize;
 
 use crate::avar::{AvarError, Confidence, Deviations, Statistic, TauGrid};
-use crate::psd::{Psd, PsdError, WelchPlan};
+use crate::psd::{BinnedPsd, Psd, PsdError, WelchPlan};
 
 pub use cpu::CpuBackend;
+
+/// A channel's PSD, raw and log-binned: what the estimate stage hands to the model stage.
+#[derive(Debug, Clone)]
+pub struct ChannelPsd {
+    pub channel: String,
+    pub psd: Psd,
+    pub binned: Option<BinnedPsd>,
+}
+
+/// A channel's Allan-family statistics, one entry per statistic asked for.
+#[derive(Debug, Clone)]
+pub struct ChannelDeviations {
+    pub channel: String,
+    pub statistics: Vec<Deviations>,
+}
 
 /// Which implementation computed a result; written into every output.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

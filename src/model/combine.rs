@@ -35,7 +35,8 @@
 
 use serde::Serialize;
 
-use crate::avar::{chi2_quantile, Deviations};
+use crate::avar::Deviations;
+use crate::stats::{chi2_quantile, normal_quantile};
 
 use super::{Domain, NoiseFit, Term, TermEstimate, FLICKER_PLATEAU};
 
@@ -172,7 +173,7 @@ fn confidence(a: Option<&NoiseFit>, s: Option<&NoiseFit>) -> f64 {
 
 /// Standard error of ln(value) from an interval at two-sided probability `p`.
 fn log_sd(e: &TermEstimate, p: f64) -> f64 {
-    let z = super::interval::normal_quantile((1.0 + p) / 2.0);
+    let z = normal_quantile((1.0 + p) / 2.0);
     if e.lo > 0.0 && e.hi > e.lo && z > 0.0 {
         (e.hi / e.lo).ln() / (2.0 * z)
     } else if e.value > 0.0 && e.hi > e.value {

@@ -2,7 +2,7 @@
 //! samples, spectrum bands share leakage; a fit that treated them as independent would count the
 //! same evidence several times and give intervals that are too narrow.
 
-use super::fit::TERMS;
+use super::terms::TERMS;
 use super::linalg::cholesky;
 
 /// The working correlation between points.

@@ -23,13 +23,7 @@ use super::linalg::{inverse_spd, solve_lower};
 use super::nnls::nnls;
 use super::Term;
 
-/// Number of model columns: the five base terms, then one slot for an effect the residual
-/// analysis adds ([`crate::model::EffectShape`]); its basis is zero when there is none.
-pub(crate) const TERMS: usize = 6;
-/// Number of base terms ([`Term::ALL`]); columns from here on are effects.
-pub(crate) const BASE: usize = 5;
-/// The effect's column.
-pub(crate) const EFFECT: usize = 5;
+pub(crate) use super::terms::{BASE, EFFECT, TERMS};
 
 /// A fitting problem in one domain.
 #[derive(Debug, Clone)]

@@ -8,9 +8,8 @@
 //! never negative, and reduces to the symmetric form when ν is large. The same construction as the
 //! Allan-deviation intervals of [`crate::avar`].
 
-use statrs::distribution::{ContinuousCDF, Normal};
 
-use crate::avar::chi2_quantile;
+use crate::stats::{chi2_quantile, normal_quantile};
 
 /// (lo, hi, ν) of the coefficient √c for squared estimate `c` with variance `var`, at two-sided
 /// probability `p`.
@@ -34,10 +33,6 @@ pub(crate) fn coefficient_interval(c: f64, var: f64, p: f64) -> (f64, f64, f64) 
     (lo.sqrt(), hi.sqrt(), nu)
 }
 
-/// Standard normal quantile.
-pub(crate) fn normal_quantile(p: f64) -> f64 {
-    Normal::new(0.0, 1.0).expect("unit normal").inverse_cdf(p)
-}
 
 #[cfg(test)]
 mod tests {

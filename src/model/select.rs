@@ -15,7 +15,8 @@
 //! scatter.
 
 use super::fit::{members, Mask, Problem, BASE, EFFECT, TERMS};
-use super::interval::{coefficient_interval, normal_quantile};
+use super::interval::coefficient_interval;
+use crate::stats::normal_quantile;
 use super::result::Domain;
 use super::{
     Candidate, EffectEstimate, FitError, FitOptions, FitPoint, LackOfFit, NoiseFit, Term,
@@ -232,12 +233,11 @@ pub const LACK_OF_FIT_P: f64 = 1e-3;
 /// The χ² test of the final model and where its residuals are largest: the contiguous run of
 /// points with the largest Σ(z² − 1) (the maximum-sum segment).
 fn lack_of_fit(z: &[f64], x: &[f64], chi2: f64, dof: usize) -> LackOfFit {
-    use statrs::distribution::{ChiSquared, ContinuousCDF};
     let per_dof = chi2 / dof.max(1) as f64;
     let p_value = if dof == 0 {
         1.0
     } else {
-        ChiSquared::new(dof as f64).map_or(1.0, |d| d.sf(chi2))
+        crate::stats::chi2_sf(chi2, dof as f64)
     };
     let (mut best, mut best_range) = (f64::NEG_INFINITY, (0, 0));
     let (mut run, mut start) = (0.0, 0);

@@ -11,6 +11,16 @@ use std::f64::consts::{LN_2, PI};
 
 use super::alias::sampled_power_law;
 
+/// Number of model columns: the five base terms, then one slot for an effect the residual
+/// analysis adds ([`crate::model::EffectShape`]); its basis is zero when there is none. Defined
+/// here, with the terms, so that the fit and the correlation model both depend on this module and
+/// not on each other.
+pub(crate) const TERMS: usize = 6;
+/// Number of base terms ([`Term::ALL`]); columns from here on are effects.
+pub(crate) const BASE: usize = 5;
+/// The effect's column.
+pub(crate) const EFFECT: usize = 5;
+
 /// One of the five base terms of the IEEE model, in order of increasing AV slope.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
 #[serde(rename_all = "snake_case")]

@@ -82,6 +82,9 @@ pub enum CoefUnit {
     // Accel, quantisation (velocity).
     #[serde(rename = "m/s")]
     MPerS,
+    /// mm/s: the datasheet scale of a velocity quantisation (an SI unit, but not *the* SI unit).
+    #[serde(rename = "mm/s")]
+    MilliMPerS,
     // Accel, velocity random walk.
     /// m/s²/√Hz = m/s/√s: SI, Kalibr's `accelerometer_noise_density`.
     #[serde(rename = "m/s^2/sqrt(Hz)")]
@@ -190,6 +193,7 @@ const TABLE: &[(CoefUnit, Sensor, Term, f64, &[&str])] = {
             &["deg/h^2", "deg/hr^2", "°/h²", "°/h^2"],
         ),
         (MPerS, A, Q, 1.0, &["m/s"]),
+        (MilliMPerS, A, Q, 1e-3, &["mm/s"]),
         (
             MPerS2PerSqrtHz,
             A,
@@ -330,7 +334,7 @@ impl CoefUnit {
             (Sensor::Gyro, Term::BiasInstability) => (DegPerH, DegPerS),
             (Sensor::Gyro, Term::RateRandomWalk) => (DegPerHPerSqrtH, RadPerSPerSqrtS),
             (Sensor::Gyro, Term::RateRamp) => (DegPerH2, RadPerS2),
-            (Sensor::Accel, Term::Quantization) => (MPerS, MPerS),
+            (Sensor::Accel, Term::Quantization) => (MilliMPerS, MPerS),
             (Sensor::Accel, Term::RandomWalk) => (MPerSPerSqrtH, MicroGPerSqrtHz),
             (Sensor::Accel, Term::BiasInstability) => (MicroG, MPerS2),
             (Sensor::Accel, Term::RateRandomWalk) => (MicroGPerSqrtS, MPerS2PerSqrtS),
@@ -430,6 +434,12 @@ mod tests {
                 );
                 let (a, b) = CoefUnit::display_pair(sensor, term);
                 assert_eq!((a.term(), b.term()), (term, term));
+                // Two different unit systems, each labelled as what it is (accel Q was m/s twice).
+                assert_ne!(a, b, "{sensor:?} {term:?}");
+                assert_ne!(a.label(), b.label(), "{sensor:?} {term:?}");
+                for u in [a, b] {
+                    assert_eq!(u.label().parse::<CoefUnit>().unwrap(), u);
+                }
             }
         }
     }
@@ -456,6 +466,7 @@ mod tests {
         assert!(close(MicroGPerSqrtHz.to_si(100.0), 9.80665e-4));
         assert!(close(MicroG.to_si(1.0), 9.80665e-6));
         assert!(close(MilliG.convert(1.0, MicroG).unwrap(), 1000.0));
+        assert!(close(MPerS.convert(0.002, MilliMPerS).unwrap(), 2.0));
     }
 
     #[test]

@@ -1,39 +1,47 @@
-//! The simulator's random numbers: xoshiro256** seeded through SplitMix64, Gaussian deviates by
-//! Box–Muller.
+//! The project's one seeded random-number generator: xoshiro256** (Blackman & Vigna 2018) from
+//! `rand_xoshiro`, seeded through SplitMix64, with Gaussian deviates by Box–Muller.
 //!
-//! A small generator of our own, rather than a crate, so that a seed means the same samples on
+//! The algorithms are fixed by their published definitions, so a seed means the same samples on
 //! every platform and in every later version: simulated test recordings and published examples stay
-//! reproducible. xoshiro256** (Blackman & Vigna 2018) passes BigCrush and is a few ns per value;
-//! SplitMix64 turns any 64-bit seed (0 included) into a well-mixed 256-bit state, as its authors
-//! recommend.
+//! reproducible. xoshiro256** passes BigCrush and is a few ns per value; SplitMix64 turns any 64-bit
+//! seed (0 included) into a well-mixed 256-bit state, as its authors recommend. The reference test
+//! vectors below pin both.
 
-/// SplitMix64 step: used to expand seeds and to derive independent streams.
+use rand_xoshiro::rand_core::{RngCore, SeedableRng};
+use rand_xoshiro::{SplitMix64, Xoshiro256StarStar};
+
+/// SplitMix64 step: used to expand seeds and to derive independent streams. `state` advances as in
+/// Vigna's splitmix64.c.
 pub fn splitmix64(state: &mut u64) -> u64 {
+    let mut g = SplitMix64::seed_from_u64(*state);
+    let out = g.next_u64();
     *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+    out
 }
 
 /// xoshiro256** with a cached second Box–Muller deviate.
 #[derive(Debug, Clone)]
 pub struct Rng {
-    s: [u64; 4],
+    inner: Xoshiro256StarStar,
     spare: Option<f64>,
 }
 
 impl Rng {
-    /// A generator for `seed`.
+    /// A generator for `seed`: the 256-bit state is four SplitMix64 outputs from `seed`.
     pub fn new(seed: u64) -> Rng {
         let mut sm = seed;
-        let s = [
-            splitmix64(&mut sm),
-            splitmix64(&mut sm),
-            splitmix64(&mut sm),
-            splitmix64(&mut sm),
-        ];
-        Rng { s, spare: None }
+        let mut state = [0u8; 32];
+        for word in state.chunks_exact_mut(8) {
+            word.copy_from_slice(&splitmix64(&mut sm).to_le_bytes());
+        }
+        Rng::from_state(state)
+    }
+
+    fn from_state(state: [u8; 32]) -> Rng {
+        Rng {
+            inner: Xoshiro256StarStar::from_seed(state),
+            spare: None,
+        }
     }
 
     /// An independent generator for sub-stream `stream` of `seed` (a channel, a noise term): the
@@ -47,15 +55,7 @@ impl Rng {
     }
 
     pub fn next_u64(&mut self) -> u64 {
-        let result = self.s[1].wrapping_mul(5).rotate_left(7).wrapping_mul(9);
-        let t = self.s[1] << 17;
-        self.s[2] ^= self.s[0];
-        self.s[3] ^= self.s[1];
-        self.s[1] ^= self.s[2];
-        self.s[0] ^= self.s[3];
-        self.s[2] ^= t;
-        self.s[3] = self.s[3].rotate_left(45);
-        result
+        self.inner.next_u64()
     }
 
     /// Uniform in [0, 1), 53 random bits.
@@ -90,10 +90,11 @@ mod tests {
     #[test]
     fn xoshiro_matches_the_reference_implementation() {
         // State {1, 2, 3, 4}: the first outputs of the authors' C code (xoshiro256starstar.c).
-        let mut r = Rng {
-            s: [1, 2, 3, 4],
-            spare: None,
-        };
+        let mut state = [0u8; 32];
+        for (i, word) in state.chunks_exact_mut(8).enumerate() {
+            word.copy_from_slice(&(i as u64 + 1).to_le_bytes());
+        }
+        let mut r = Rng::from_state(state);
         let out: Vec<u64> = (0..3).map(|_| r.next_u64()).collect();
         assert_eq!(out, [11520, 0, 1509978240]);
     }
@@ -103,6 +104,7 @@ mod tests {
         // Seed 0: first output of Vigna's splitmix64.c.
         let mut s = 0;
         assert_eq!(splitmix64(&mut s), 0xE220_A839_7B1D_CDAF);
+        assert_eq!(splitmix64(&mut s), 0x6E78_9E6A_A1B9_65F4);
     }
 
     #[test]

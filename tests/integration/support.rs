@@ -38,16 +38,11 @@ pub fn time_col(n: usize, rate_hz: f64, edit: impl Fn(usize, i64) -> i64) -> Col
     }
 }
 
-/// Deterministic white noise (splitmix64 + Box–Muller), so tests need no RNG crate.
+/// Deterministic white noise (the project's SplitMix64 + Box–Muller).
 pub fn noise(n: usize, seed: u64) -> Vec<f64> {
     let mut state = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut next = || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next =
+        || (imunoise::sim::rng::splitmix64(&mut state) >> 11) as f64 / (1u64 << 53) as f64;
     (0..n)
         .map(|_| {
             let (u1, u2) = (next().max(1e-300), next());
