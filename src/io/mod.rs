@@ -10,6 +10,7 @@ mod channels;
 mod convert;
 mod error;
 mod format;
+pub mod time_grid;
 mod mcap;
 mod write;
 
@@ -156,7 +157,7 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Recording, InputError>
                 let per_unit = spec.encoding.seconds_per_unit();
                 let rate = check_rate(
                     path,
-                    1.0 / (probe.mean_near_median * per_unit),
+                    1.0 / (probe.mean_interval * per_unit),
                     &format!("time column {:?}", spec.name),
                 )?;
                 (Some(spec), Some(rate))
@@ -225,9 +226,10 @@ fn parse_rate(path: &Path, text: &str, source: &str) -> Result<f64, InputError> 
 /// The intervals of the first timestamps, in the time column's stored units.
 struct TimeProbe {
     median: f64,
-    /// Mean of the intervals within ±50 % of the median: robust to gaps and to timestamps rounded
+    /// The mean period on the grid of sample instants (see [`time_grid`]), started from the mean of
+    /// the intervals within ±50 % of the median: robust to gaps, jitter and timestamps rounded
     /// coarser than the sample period.
-    mean_near_median: f64,
+    mean_interval: f64,
     /// Whether any value (after the first is subtracted) has a fractional part.
     fractional: bool,
 }
@@ -270,9 +272,10 @@ fn probe_time(
         .filter(|d| *d > 0.5 * median && *d < 1.5 * median)
         .collect();
     let mean_near_median = near.iter().sum::<f64>() / near.len() as f64;
+    let stored: Vec<f64> = times.iter().map(|t| t / per_unit).collect();
     Ok(Some(TimeProbe {
         median,
-        mean_near_median,
+        mean_interval: time_grid::grid_period(&stored, mean_near_median),
         fractional,
     }))
 }

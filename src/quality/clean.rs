@@ -10,17 +10,13 @@ use super::{
     verdicts, ChannelQuality, ChannelStats, Gap, GapPolicy, NonFinitePolicy, QualityOptions,
     QualityReport, TimeJitter, MAX_LISTED_GAPS,
 };
+use crate::io::time_grid::GridTracker;
 use crate::io::ChannelSpec;
 use crate::io::{Block, InputError, Recording};
 
-/// Gain of the loop that tracks the sample grid: each timestamp pulls the grid by this share of its
-/// deviation, so the grid follows clock drift (a rate off by 0.1 % lags by 0.064 periods) while one
-/// late or early timestamp moves it by under 2 % of its jitter.
-const GRID_GAIN: f64 = 1.0 / 64.0;
-
 /// Jitter (largest deviation from the grid, in periods) beyond which a missing sample can no longer
 /// be told from a late one: the report says so.
-pub const JITTER_AMBIGUOUS_PERIODS: f64 = 0.35;
+pub const JITTER_AMBIGUOUS_PERIODS: f64 = 0.4;
 
 /// Clean samples ready for the estimators: one `Vec` per channel, all of the same length.
 #[derive(Debug, Clone, Default)]
@@ -54,8 +50,11 @@ pub struct Cleaner {
     period_s: f64,
     options: QualityOptions,
     previous_time: Option<f64>,
-    /// Where the grid of sample instants puts the previous row, seconds.
-    grid_time: Option<f64>,
+    /// The grid of sample instants the timestamps jitter around, at the period the time column
+    /// shows (a clock off its nominal rate by 0.4 % would otherwise make the grid lag by a quarter
+    /// period).
+    grid: GridTracker,
+    grid_period_s: f64,
     jitter_sq: f64,
     jitter_max: f64,
     jitter_count: u64,
@@ -80,6 +79,7 @@ pub struct Cleaner {
 impl Cleaner {
     pub fn new(recording: &Recording, options: QualityOptions) -> Self {
         let n = recording.channels.len();
+        let grid_period_s = 1.0 / recording.rate_from_time_hz.unwrap_or(recording.rate_hz);
         Cleaner {
             path: recording.path.clone(),
             names: recording.channel_names(),
@@ -92,7 +92,8 @@ impl Cleaner {
             period_s: 1.0 / recording.rate_hz,
             options,
             previous_time: None,
-            grid_time: None,
+            grid: GridTracker::new(grid_period_s),
+            grid_period_s,
             jitter_sq: 0.0,
             jitter_max: 0.0,
             jitter_count: 0,
@@ -119,6 +120,9 @@ impl Cleaner {
     pub fn push(&mut self, block: Block) -> Result<SampleChunk, InputError> {
         let rows = block.rows();
         let mut start = 0;
+        if let (Some(times), None) = (&block.time_s, self.previous_time) {
+            self.grid = GridTracker::anchored(self.grid_period_s, times);
+        }
         if let Some(times) = &block.time_s {
             for (i, &t) in times.iter().enumerate() {
                 let row = block.first_row + i as u64;
@@ -172,7 +176,7 @@ impl Cleaner {
                 TimeJitter {
                     rms_s,
                     max_s: self.jitter_max,
-                    gaps_ambiguous: self.jitter_max > JITTER_AMBIGUOUS_PERIODS * self.period_s,
+                    gaps_ambiguous: self.jitter_max > JITTER_AMBIGUOUS_PERIODS * self.grid_period_s,
                 }
             }),
             channels: self
@@ -200,6 +204,7 @@ impl Cleaner {
             if !t.is_finite() {
                 return Err(self.time_error(row, f64::NAN, t));
             }
+            self.grid.place(t);
             return Ok(None);
         };
         let dt = t - p;
@@ -214,21 +219,18 @@ impl Cleaner {
                 this_s: t,
             });
         }
-        // A gap is a missing sample, judged on the grid of sample instants rather than on one interval:
-        // with ±40 % jitter an interval can be 1.8 periods long with nothing missing, and one missing
-        // sample between an early and a late timestamp can look like 1.2 periods.
-        let grid = self.grid_time.unwrap_or(p);
-        let steps = ((t - grid) / self.period_s).round().max(1.0);
-        let on_grid = grid + steps * self.period_s;
-        let deviation = t - on_grid;
-        self.grid_time = Some(on_grid + GRID_GAIN * deviation);
-        self.jitter_sq += deviation * deviation;
-        self.jitter_max = self.jitter_max.max(deviation.abs());
-        self.jitter_count += 1;
-        if steps <= 1.0 {
+        // A gap is a missing sample, judged on the grid of sample instants rather than on one
+        // interval (see `io::time_grid`).
+        let (steps, deviation) = self.grid.place(t);
+        if self.grid.warm() {
+            self.jitter_sq += deviation * deviation;
+            self.jitter_max = self.jitter_max.max(deviation.abs());
+            self.jitter_count += 1;
+        }
+        if steps <= 1 {
             return Ok(None);
         }
-        let missing = steps as u64 - 1;
+        let missing = steps - 1;
         if self.options.gaps == GapPolicy::Error {
             return Err(InputError::Gap {
                 path: self.path.clone(),
