@@ -49,21 +49,23 @@ fn record(path: &std::path::Path, jitter: f64, seed: u64) -> (u64, u64) {
     let mut jit = Rng::stream(seed, 1);
     let period = 1.0 / (RATE * (1.0 + DRIFT));
     let (mut t, mut g) = (Vec::new(), Vec::new());
-    for i in 0..N {
+    for (i, &dropped) in drop.iter().enumerate().take(N) {
         let e = (2.0 * jit.uniform() - 1.0) * jitter / RATE;
         let x = jit.gauss();
-        if !drop[i] {
+        if !dropped {
             t.push(((i as f64 * period + e) * 1e9).round() as i64);
             g.push(x * 1e-3);
         }
     }
     let schema = Arc::new(Schema::new_with_metadata(
         vec![
-            Field::new("time", DataType::Timestamp(TimeUnit::Nanosecond, None), false),
-            Field::new("gx", DataType::Float64, false).with_metadata(HashMap::from([(
-                "unit".to_string(),
-                "rad/s".to_string(),
-            )])),
+            Field::new(
+                "time",
+                DataType::Timestamp(TimeUnit::Nanosecond, None),
+                false,
+            ),
+            Field::new("gx", DataType::Float64, false)
+                .with_metadata(HashMap::from([("unit".to_string(), "rad/s".to_string())])),
         ],
         HashMap::from([("sample_rate_hz".to_string(), RATE.to_string())]),
     ));

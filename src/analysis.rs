@@ -13,11 +13,11 @@ use serde::Serialize;
 
 use crate::avar::{Deviations, Statistic};
 use crate::effects::{close_loop, AuxSeries, LoopConfig, LoopReport};
+use crate::estimate::{ChannelDeviations, ChannelPsd};
 use crate::model::{
     combine, compare, detect_bandwidth, fit_avar, fit_psd, Bandwidth, Combined, FitError,
     FitOptions, NoiseFit, Sensor, TermComparison,
 };
-use crate::estimate::{ChannelDeviations, ChannelPsd};
 
 /// One channel's fits.
 #[derive(Debug, Clone, Serialize)]

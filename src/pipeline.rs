@@ -124,10 +124,12 @@ pub fn run(
     // Notes left by an earlier recording that failed half-way are not this recording's.
     let _ = backend.take_notes();
     let recording = io::open(path, &inputs.open)?;
-    if work.fit.is_some() && !recording
-        .channels
-        .iter()
-        .any(|c| Sensor::of_kind(c.kind).is_some()) {
+    if work.fit.is_some()
+        && !recording
+            .channels
+            .iter()
+            .any(|c| Sensor::of_kind(c.kind).is_some())
+    {
         return Err(InputError::NoInertialChannel {
             path: path.to_path_buf(),
             channels: recording

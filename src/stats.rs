@@ -50,7 +50,7 @@ pub fn chi2_sf(x: f64, k: f64) -> f64 {
 /// The χ²₁ value with two-sided p-value `p`: z² with P(|Z| > z) = p. `fallback` (the raw
 /// statistic, itself a χ²) is used where `p` has underflowed.
 pub fn chi2_eq(p: f64, fallback: f64) -> f64 {
-    if !(p < 1.0) {
+    if p.is_nan() || p >= 1.0 {
         return 0.0;
     }
     if p < 1e-290 {
@@ -120,4 +120,3 @@ fn wilson_hilferty(p: f64, nu: f64) -> f64 {
     let c = 2.0 / (9.0 * nu);
     nu * (1.0 - c + z * c.sqrt()).powi(3)
 }
-

@@ -7,8 +7,8 @@
 //! pure-noise spectrum of 10⁵ bins raises a false line with probability ≤ `family_p`). Neighbouring
 //! excess bins (a line's window main lobe and sidelobes, a resonance's width) form one group.
 
-use serde::Serialize;
 use crate::stats::chi2_sf;
+use serde::Serialize;
 
 use crate::psd::Psd;
 
@@ -29,7 +29,6 @@ pub struct Excess {
     /// Bonferroni-corrected p-value of the strongest bin.
     pub p_value: f64,
 }
-
 
 /// Groups of bins of `psd` (one-sided density) above `model_one_sided(f)`, strongest first. Bins
 /// outside [`min_freq_hz`, `max_freq_hz`], DC and Nyquist are not searched.

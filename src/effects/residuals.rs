@@ -12,8 +12,8 @@
 //! The residual of a point is the fit's Wilson–Hilferty z (see [`crate::model::FitPoint`]), close
 //! to standard normal under the model even at few degrees of freedom.
 
-use serde::Serialize;
 use crate::stats::{chi2_sf, norm_sf};
+use serde::Serialize;
 
 use crate::model::NoiseFit;
 
@@ -48,7 +48,6 @@ pub struct Diagnostics {
     /// Any of the three tests below [`STRUCTURE_P`].
     pub structured: bool,
 }
-
 
 /// Diagnostics of `fit`.
 pub fn diagnose(fit: &NoiseFit) -> Diagnostics {

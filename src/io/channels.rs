@@ -62,9 +62,15 @@ impl TimeEncoding {
 
     fn with_seconds_per_unit(self, s: f64) -> TimeEncoding {
         match self {
-            TimeEncoding::Timestamp { .. } => TimeEncoding::Timestamp { seconds_per_tick: s },
-            TimeEncoding::Float { .. } => TimeEncoding::Float { seconds_per_unit: s },
-            TimeEncoding::IntegerTicks { .. } => TimeEncoding::IntegerTicks { seconds_per_tick: s },
+            TimeEncoding::Timestamp { .. } => TimeEncoding::Timestamp {
+                seconds_per_tick: s,
+            },
+            TimeEncoding::Float { .. } => TimeEncoding::Float {
+                seconds_per_unit: s,
+            },
+            TimeEncoding::IntegerTicks { .. } => TimeEncoding::IntegerTicks {
+                seconds_per_tick: s,
+            },
         }
     }
 }
@@ -264,7 +270,9 @@ fn time_encoding(
         match field.metadata().get("unit") {
             Some(text) => {
                 let u: TimeUnit = text.parse().map_err(|e: String| {
-                    bad(format!("{e} (field metadata unit; --time-unit overrides it)"))
+                    bad(format!(
+                        "{e} (field metadata unit; --time-unit overrides it)"
+                    ))
                 })?;
                 Ok(Some((u.seconds(), TimeUnitSource::Metadata)))
             }
@@ -279,7 +287,12 @@ fn time_encoding(
             TimeUnitSource::ArrowType,
         )),
         DataType::Float32 | DataType::Float64 => Ok(match stated()? {
-            Some((s, source)) => (TimeEncoding::Float { seconds_per_unit: s }, source),
+            Some((s, source)) => (
+                TimeEncoding::Float {
+                    seconds_per_unit: s,
+                },
+                source,
+            ),
             None => (
                 TimeEncoding::Float {
                     seconds_per_unit: 1.0,
@@ -288,7 +301,12 @@ fn time_encoding(
             ),
         }),
         t if t.is_integer() => Ok(match stated()? {
-            Some((s, source)) => (TimeEncoding::IntegerTicks { seconds_per_tick: s }, source),
+            Some((s, source)) => (
+                TimeEncoding::IntegerTicks {
+                    seconds_per_tick: s,
+                },
+                source,
+            ),
             None => (
                 TimeEncoding::IntegerTicks {
                     seconds_per_tick: 1.0,
@@ -355,15 +373,19 @@ pub fn resolve_time_unit(
         .map(|&u| format!("{u}: {}", rate_text(rate(u))))
         .collect::<Vec<_>>()
         .join(", ");
-    let refuse = |why: String| InputError::BadMetadata {
+    let refuse = |why: String| {
+        InputError::BadMetadata {
         path: path.to_path_buf(),
         column: spec.name.clone(),
         message: format!(
             "{why}; give the unit with --time-unit s|ms|us|ns (the rates each unit implies: {implied})"
         ),
+    }
     };
     if !(median_interval.is_finite() && median_interval > 0.0) {
-        return Err(refuse("the time column has no usable intervals to judge its unit by".into()));
+        return Err(refuse(
+            "the time column has no usable intervals to judge its unit by".into(),
+        ));
     }
     if is_float && (fractional || typed_format) {
         // Fractional values are seconds, and so are floats in a typed format, whose writer chose

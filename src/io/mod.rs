@@ -10,8 +10,8 @@ mod channels;
 mod convert;
 mod error;
 mod format;
-pub mod time_grid;
 mod mcap;
+pub mod time_grid;
 mod write;
 
 use std::path::{Path, PathBuf};

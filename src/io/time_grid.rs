@@ -121,7 +121,7 @@ fn coherent_period(times: &[f64], rough_period: f64) -> f64 {
         let head = &finite[..w];
         let t0 = head[0];
         let span = head[w - 1] - t0;
-        if !(span > 0.0) {
+        if span.is_nan() || span <= 0.0 {
             return period;
         }
         let coherence = |p: f64| {
@@ -209,7 +209,10 @@ mod tests {
         assert!((p / period - 1.0).abs() < 2e-6, "{p}");
         let mut tracker = GridTracker::anchored(period, &times);
         let steps: Vec<u64> = times.iter().map(|&t| tracker.place(t).0).collect();
-        assert_eq!(steps[0], 1, "the first timestamp steps onto its own instant");
+        assert_eq!(
+            steps[0], 1,
+            "the first timestamp steps onto its own instant"
+        );
         assert_eq!(steps.iter().filter(|&&s| s == 4).count(), 1);
         assert_eq!(steps.iter().filter(|&&s| s > 1).count(), 1);
     }

@@ -86,7 +86,11 @@ pub fn write_recording(
     }];
     for c in columns {
         fields.push(if csv {
-            Field::new(format!("{} [{}]", c.name, c.unit), value_type.clone(), false)
+            Field::new(
+                format!("{} [{}]", c.name, c.unit),
+                value_type.clone(),
+                false,
+            )
         } else {
             let meta = HashMap::from([
                 ("unit".to_string(), c.unit.to_string()),
@@ -131,9 +135,11 @@ pub fn write_recording(
         let e = |e: &dyn std::fmt::Display| e.to_string();
         match format {
             Format::ArrowFile => {
-                let mut w = arrow_ipc::writer::FileWriter::try_new(out, &schema).map_err(|x| e(&x))?;
+                let mut w =
+                    arrow_ipc::writer::FileWriter::try_new(out, &schema).map_err(|x| e(&x))?;
                 for &(a, b) in &ranges {
-                    w.write(&batch(a, b).map_err(|x| e(&x))?).map_err(|x| e(&x))?;
+                    w.write(&batch(a, b).map_err(|x| e(&x))?)
+                        .map_err(|x| e(&x))?;
                 }
                 w.finish().map_err(|x| e(&x))
             }
@@ -141,7 +147,8 @@ pub fn write_recording(
                 let mut w =
                     arrow_ipc::writer::StreamWriter::try_new(out, &schema).map_err(|x| e(&x))?;
                 for &(a, b) in &ranges {
-                    w.write(&batch(a, b).map_err(|x| e(&x))?).map_err(|x| e(&x))?;
+                    w.write(&batch(a, b).map_err(|x| e(&x))?)
+                        .map_err(|x| e(&x))?;
                 }
                 w.finish().map_err(|x| e(&x))
             }
@@ -149,14 +156,16 @@ pub fn write_recording(
                 let mut w = parquet::arrow::ArrowWriter::try_new(out, schema.clone(), None)
                     .map_err(|x| e(&x))?;
                 for &(a, b) in &ranges {
-                    w.write(&batch(a, b).map_err(|x| e(&x))?).map_err(|x| e(&x))?;
+                    w.write(&batch(a, b).map_err(|x| e(&x))?)
+                        .map_err(|x| e(&x))?;
                 }
                 w.close().map(|_| ()).map_err(|x| e(&x))
             }
             _ => {
                 let mut w = arrow_csv::WriterBuilder::new().with_header(true).build(out);
                 for &(a, b) in &ranges {
-                    w.write(&batch(a, b).map_err(|x| e(&x))?).map_err(|x| e(&x))?;
+                    w.write(&batch(a, b).map_err(|x| e(&x))?)
+                        .map_err(|x| e(&x))?;
                 }
                 Ok(())
             }

@@ -2,8 +2,8 @@
 //! samples, spectrum bands share leakage; a fit that treated them as independent would count the
 //! same evidence several times and give intervals that are too narrow.
 
-use super::terms::TERMS;
 use super::linalg::cholesky;
+use super::terms::TERMS;
 
 /// The working correlation between points.
 #[derive(Debug, Clone)]

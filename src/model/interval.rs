@@ -8,7 +8,6 @@
 //! never negative, and reduces to the symmetric form when ν is large. The same construction as the
 //! Allan-deviation intervals of [`crate::avar`].
 
-
 use crate::stats::{chi2_quantile, normal_quantile};
 
 /// (lo, hi, ν) of the coefficient √c for squared estimate `c` with variance `var`, at two-sided
@@ -32,7 +31,6 @@ pub(crate) fn coefficient_interval(c: f64, var: f64, p: f64) -> (f64, f64, f64) 
     let hi = nu * c / chi2_quantile(q, nu);
     (lo.sqrt(), hi.sqrt(), nu)
 }
-
 
 #[cfg(test)]
 mod tests {

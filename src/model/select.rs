@@ -16,12 +16,12 @@
 
 use super::fit::{members, Mask, Problem, BASE, EFFECT, TERMS};
 use super::interval::coefficient_interval;
-use crate::stats::normal_quantile;
 use super::result::Domain;
 use super::{
     Candidate, EffectEstimate, FitError, FitOptions, FitPoint, LackOfFit, NoiseFit, Term,
     TermEstimate, UpperLimit,
 };
+use crate::stats::normal_quantile;
 
 /// Every subset of `allowed` (with `forced` in each) fitted on `problem` and scored by the
 /// criterion, best score first, with its mask.

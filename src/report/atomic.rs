@@ -21,10 +21,9 @@ where
         let file = File::create(&tmp).map_err(|e| {
             let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
             match parent {
-                Some(dir) if !dir.is_dir() => OutputError::new(
-                    path,
-                    format!("the folder {} does not exist", dir.display()),
-                ),
+                Some(dir) if !dir.is_dir() => {
+                    OutputError::new(path, format!("the folder {} does not exist", dir.display()))
+                }
                 _ => fail(&e),
             }
         })?;
@@ -93,7 +92,10 @@ mod tests {
         let path = dir.path().join("nowhere").join("out.arrow");
         let err = write_atomically(&path, |w| w.write_all(b"x")).unwrap_err();
         let text = err.to_string();
-        assert!(text.contains("out.arrow") && text.contains("does not exist"), "{text}");
+        assert!(
+            text.contains("out.arrow") && text.contains("does not exist"),
+            "{text}"
+        );
         assert!(!text.contains(".out.arrow."), "{text}");
     }
 }

@@ -53,7 +53,9 @@ fn integer_milliseconds_in_csv_are_inferred_and_said_so() {
     assert_eq!(time.unit_source, TimeUnitSource::Inferred);
     assert_eq!(time.encoding.seconds_per_unit(), 1e-3);
     assert!(
-        rec.notes.iter().any(|n| n.contains("ms") && n.contains("--time-unit")),
+        rec.notes
+            .iter()
+            .any(|n| n.contains("ms") && n.contains("--time-unit")),
         "{:?}",
         rec.notes
     );
@@ -78,7 +80,9 @@ fn an_ambiguous_time_unit_is_refused_naming_the_flag_and_a_stated_rate_settles_i
     // Whole numbers one apart: 1 Hz in seconds or 1 kHz in milliseconds.
     let ticks: Vec<i64> = (0..500).collect();
     csv_with_ticks(&p, &ticks, &noise(500, 2));
-    let err = io::open(&p, &OpenOptions::default()).unwrap_err().to_string();
+    let err = io::open(&p, &OpenOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(
         err.contains("--time-unit") && err.contains("\"t\"") && err.contains("ambiguous"),
         "{err}"
@@ -97,9 +101,9 @@ fn an_arrow_integer_time_column_without_unit_is_inferred_from_its_intervals() {
     let t: Vec<i64> = (0..n).map(|i| 5000 * i as i64).collect();
     let schema = Schema::new(vec![
         Field::new("time", DataType::Int64, false),
-        Field::new("gx", DataType::Float64, false).with_metadata(
-            std::collections::HashMap::from([("unit".to_string(), "rad/s".to_string())]),
-        ),
+        Field::new("gx", DataType::Float64, false).with_metadata(std::collections::HashMap::from(
+            [("unit".to_string(), "rad/s".to_string())],
+        )),
     ]);
     let b = RecordBatch::try_new(
         Arc::new(schema),
@@ -200,7 +204,9 @@ fn stuck_and_unresolved_channels_are_named_and_not_fitted() {
             f64_col("gy", vec![0.25; n], Some("deg/s")),
             f64_col(
                 "gz",
-                (0..n).map(|i| if i % 7 == 0 { 0.01 } else { 0.0 }).collect(),
+                (0..n)
+                    .map(|i| if i % 7 == 0 { 0.01 } else { 0.0 })
+                    .collect(),
                 Some("deg/s"),
             ),
             f64_col("ax", froze, Some("m/s^2")),
@@ -242,7 +248,10 @@ fn stuck_and_unresolved_channels_are_named_and_not_fitted() {
     assert!(verdicts("gx").is_empty(), "{:?}", verdicts("gx"));
     assert!(matches!(verdicts("gy")[..], [ChannelVerdict::Stuck { value }] if value > 0.0));
     assert!(
-        matches!(verdicts("gz")[..], [ChannelVerdict::FewLevels { levels: 2, .. }]),
+        matches!(
+            verdicts("gz")[..],
+            [ChannelVerdict::FewLevels { levels: 2, .. }]
+        ),
         "{:?}",
         verdicts("gz")
     );
@@ -281,9 +290,16 @@ fn flags_that_do_not_fit_the_file_are_refused_by_name() {
         "{}",
         stderr(&out)
     );
-    let out = imunoise(&["psd", sample, "--bins-per-decade", "100000", "--json"], &root);
+    let out = imunoise(
+        &["psd", sample, "--bins-per-decade", "100000", "--json"],
+        &root,
+    );
     assert_eq!(out.status.code(), Some(2));
-    assert!(stderr(&out).contains("--bins-per-decade 100000"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--bins-per-decade 100000"),
+        "{}",
+        stderr(&out)
+    );
     let out = imunoise(
         &["analyze", sample, "--fit-min-freq", "80", "--json"],
         &root,
@@ -306,7 +322,11 @@ fn flags_that_do_not_fit_the_file_are_refused_by_name() {
 fn a_file_without_units_is_not_analysed_as_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("nounits.csv");
-    write_csv(&p, &[("a", None), ("b", None)], &[noise(5000, 4), noise(5000, 5)]);
+    write_csv(
+        &p,
+        &[("a", None), ("b", None)],
+        &[noise(5000, 4), noise(5000, 5)],
+    );
     let out = imunoise(
         &[
             "analyze",
@@ -323,7 +343,9 @@ fn a_file_without_units_is_not_analysed_as_nothing() {
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     let e = stderr(&out);
     assert!(
-        e.contains("no gyro or accelerometer channel") && e.contains("a (no unit)") && e.contains("--unit"),
+        e.contains("no gyro or accelerometer channel")
+            && e.contains("a (no unit)")
+            && e.contains("--unit"),
         "{e}"
     );
     assert!(!dir.path().join("out").join("imu.yaml").exists());
@@ -334,41 +356,79 @@ fn simulate_wants_units_and_writes_the_format_its_extension_names() {
     let dir = tempfile::tempdir().unwrap();
     let run = |args: &[&str]| imunoise(args, dir.path());
     let out = run(&[
-        "simulate", "--rate", "100", "--duration", "60", "--noise", "N=0.15", "-o", "x.arrow",
+        "simulate",
+        "--rate",
+        "100",
+        "--duration",
+        "60",
+        "--noise",
+        "N=0.15",
+        "-o",
+        "x.arrow",
     ]);
     assert_eq!(out.status.code(), Some(2));
     assert!(stderr(&out).contains("give a unit"), "{}", stderr(&out));
     let out = run(&[
-        "simulate", "--rate", "100", "--duration", "60", "--noise", "N=0.15deg/sqrt(h)", "-o",
+        "simulate",
+        "--rate",
+        "100",
+        "--duration",
+        "60",
+        "--noise",
+        "N=0.15deg/sqrt(h)",
+        "-o",
         "x.txt",
     ]);
     assert_eq!(out.status.code(), Some(2));
     assert!(stderr(&out).contains(".csv"), "{}", stderr(&out));
     let out = run(&[
-        "simulate", "--rate", "100", "--duration", "60", "--noise", "N=0.15deg/sqrt(h)", "-o",
+        "simulate",
+        "--rate",
+        "100",
+        "--duration",
+        "60",
+        "--noise",
+        "N=0.15deg/sqrt(h)",
+        "-o",
         "missing/x.arrow",
     ]);
     assert_eq!(out.status.code(), Some(2));
     let e = stderr(&out);
-    assert!(e.contains("missing") && e.contains("does not exist") && !e.contains(".x.arrow."), "{e}");
+    assert!(
+        e.contains("missing") && e.contains("does not exist") && !e.contains(".x.arrow."),
+        "{e}"
+    );
     for name in ["x.csv", "x.parquet", "x.arrows", "x.arrow"] {
         let out = run(&[
-            "simulate", "--rate", "100", "--duration", "60", "--seed", "3", "--noise",
-            "N=0.15deg/sqrt(h)", "-o", name,
+            "simulate",
+            "--rate",
+            "100",
+            "--duration",
+            "60",
+            "--seed",
+            "3",
+            "--noise",
+            "N=0.15deg/sqrt(h)",
+            "-o",
+            name,
         ]);
         assert_eq!(out.status.code(), Some(0), "{name}: {}", stderr(&out));
         let rec = io::open(&dir.path().join(name), &OpenOptions::default())
             .unwrap_or_else(|e| panic!("{name}: {e}"));
-        assert!((rec.rate_hz - 100.0).abs() < 1e-6, "{name}: {}", rec.rate_hz);
-        assert_eq!(rec.channels.len(), 3, "{name}");
-        assert_eq!(
-            rec.channels[0].kind,
-            imunoise::units::Kind::Gyro,
-            "{name}"
+        assert!(
+            (rec.rate_hz - 100.0).abs() < 1e-6,
+            "{name}: {}",
+            rec.rate_hz
         );
+        assert_eq!(rec.channels.len(), 3, "{name}");
+        assert_eq!(rec.channels[0].kind, imunoise::units::Kind::Gyro, "{name}");
     }
     let bytes = std::fs::read(dir.path().join("x.csv")).unwrap();
-    assert!(bytes.starts_with(b"time [s],gyro_x [rad/s]"), "{:?}", &bytes[..40]);
+    assert!(
+        bytes.starts_with(b"time [s],gyro_x [rad/s]"),
+        "{:?}",
+        &bytes[..40]
+    );
 }
 
 #[test]
