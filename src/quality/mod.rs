@@ -216,16 +216,20 @@ impl ChannelVerdict {
             ChannelVerdict::StuckRun {
                 start_sample,
                 samples,
-            } => format!(
-                "froze for {samples} samples from sample {start_sample} (identical values)"
-            ),
+            } => {
+                let noun = if *samples == 1 { "sample" } else { "samples" };
+                format!("froze for {samples} {noun} from sample {start_sample} (identical values)")
+            }
             ChannelVerdict::PossiblySaturated {
                 samples_at_min,
                 samples_at_max,
-            } => format!(
-                "possibly saturated ({samples_at_min} samples at the minimum, {samples_at_max} at \
-                 the maximum)"
-            ),
+            } => {
+                let noun = if *samples_at_min == 1 { "sample" } else { "samples" };
+                format!(
+                    "possibly saturated ({samples_at_min} {noun} at the minimum, {samples_at_max} \
+                     at the maximum)"
+                )
+            }
             ChannelVerdict::NoUnit => {
                 "no unit: analysed as aux, not as gyro or accel (give --unit COLUMN=UNIT)".into()
             }
