@@ -1,7 +1,9 @@
 //! Input errors. Every variant names the file and, where one is involved, the column and the row, because
 //! a user with a hundred recordings in a batch needs to find the bad sample without opening a debugger.
 //!
-//! Rows are 0-based indices of data rows (the header of a CSV file is not a row).
+//! Rows are 0-based indices of data rows (the header of a CSV file is not a row); CSV errors also give
+//! the 1-based line of the file, which differs from the row by the header, comment and blank lines
+//! and quoted line breaks.
 
 use std::path::PathBuf;
 
@@ -41,12 +43,42 @@ pub enum InputError {
         topic: String,
         reason: String,
     },
-    #[error("{path}: corrupt or truncated {format} file{}: {message}", at_row(*.row))]
+    /// Shown as `PATH: corrupt FORMAT (CAUSE) at row ROW: DETAIL`, the parts that are known.
+    #[error("{}", corrupt_text(path, format, *row, message))]
     Corrupt {
         path: PathBuf,
+        /// [`super::Format::as_str`]: `Parquet` is shown as `Parquet file`, `Arrow IPC file` as is.
         format: &'static str,
         row: Option<u64>,
+        /// The decoder's message; a leading `(cause)` (`(truncated: footer missing): ...`) is shown
+        /// after the format.
         message: String,
+    },
+    #[error("{path}: malformed CSV{}: {message}", csv_at(*.row, *.line))]
+    MalformedCsv {
+        path: PathBuf,
+        row: Option<u64>,
+        /// 1-based line of the file.
+        line: Option<u64>,
+        message: String,
+    },
+    #[error("{path}: column {column:?}, row {row}{}: {value:?} is not {expected}", line_text(*.line))]
+    BadValue {
+        path: PathBuf,
+        column: String,
+        row: u64,
+        /// 1-based line of the file, when it could be found.
+        line: Option<u64>,
+        value: String,
+        /// What the column holds (`a number`).
+        expected: &'static str,
+    },
+    #[error("{path}: column {column:?} appears twice (columns {first} and {second}, counting from 1); rename one, since which of them to analyse would be a guess")]
+    DuplicateColumn {
+        path: PathBuf,
+        column: String,
+        first: usize,
+        second: usize,
     },
     #[error("{path}: no numeric column to analyse (columns: {columns})")]
     NoNumericColumn { path: PathBuf, columns: String },
@@ -119,7 +151,9 @@ pub enum InputError {
     },
     #[error("{path}: no gyro or accelerometer channel to fit (channels: {channels}); give units with --unit COLUMN=UNIT (e.g. --unit gyro_x=deg/s) or kinds with --kind COLUMN=gyro|accel")]
     NoInertialChannel { path: PathBuf, channels: String },
-    #[error("{path}: {flag} names column {column:?}, which is not in the file (columns: {available})")]
+    #[error(
+        "{path}: {flag} names column {column:?}, which is not in the file (columns: {available})"
+    )]
     UnknownFlagColumn {
         path: PathBuf,
         flag: &'static str,
@@ -141,8 +175,43 @@ pub enum InputError {
     },
 }
 
-fn at_row(row: Option<u64>) -> String {
-    row.map(|r| format!(" at row {r}")).unwrap_or_default()
+fn line_text(line: Option<u64>) -> String {
+    line.map(|l| format!(" (line {l} of the file)"))
+        .unwrap_or_default()
+}
+
+fn csv_at(row: Option<u64>, line: Option<u64>) -> String {
+    match (row, line) {
+        (Some(r), _) => format!(" at row {r}{}", line_text(line)),
+        (None, Some(l)) => format!(" at line {l}"),
+        (None, None) => String::new(),
+    }
+}
+
+/// `x.arrow: corrupt Arrow IPC file (truncated: footer missing): DETAIL`, with only the parts known:
+/// no doubled "file", no colon with nothing after it.
+fn corrupt_text(path: &std::path::Path, format: &str, row: Option<u64>, message: &str) -> String {
+    use std::fmt::Write;
+    let mut text = format!("{}: corrupt {format}", path.display());
+    if !(format.ends_with(" file") || format.ends_with(" stream")) {
+        text.push_str(" file");
+    }
+    let mut detail = message.trim();
+    if let Some((cause, rest)) = detail
+        .strip_prefix('(')
+        .and_then(|inner| inner.split_once(')'))
+    {
+        let _ = write!(text, " ({})", cause.trim());
+        detail = rest.trim_start_matches(':').trim();
+    }
+    if let Some(r) = row {
+        let _ = write!(text, " at row {r}");
+    }
+    let detail = detail.trim_end_matches([':', ' ']);
+    if !detail.is_empty() {
+        let _ = write!(text, ": {detail}");
+    }
+    text
 }
 
 impl InputError {
@@ -160,6 +229,9 @@ impl InputError {
             | UnknownTopic { path, .. }
             | UnusableTopic { path, .. }
             | Corrupt { path, .. }
+            | MalformedCsv { path, .. }
+            | BadValue { path, .. }
+            | DuplicateColumn { path, .. }
             | NoNumericColumn { path, .. }
             | UnknownColumn { path, .. }
             | UnsupportedType { path, .. }
@@ -186,6 +258,8 @@ impl InputError {
             | UnknownFlagColumn { column, .. }
             | UnsupportedType { column, .. }
             | BadMetadata { column, .. }
+            | BadValue { column, .. }
+            | DuplicateColumn { column, .. }
             | NonFinite { column, .. }
             | DuplicateTimestamp { column, .. }
             | NonMonotonicTime { column, .. }
@@ -199,10 +273,11 @@ impl InputError {
         use InputError::*;
         match self {
             NonFinite { row, .. }
+            | BadValue { row, .. }
             | DuplicateTimestamp { row, .. }
             | NonMonotonicTime { row, .. }
             | Gap { row, .. } => Some(*row),
-            Corrupt { row, .. } => *row,
+            Corrupt { row, .. } | MalformedCsv { row, .. } => *row,
             _ => None,
         }
     }

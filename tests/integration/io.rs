@@ -529,3 +529,348 @@ fn read_truncated_stream_rows(path: &Path) -> Option<u64> {
         .ok()
         .map(|(_, r)| r.samples_out)
 }
+
+/// A CSV file: `header`, then `rows` lines (each already joined), newline-terminated.
+fn write_csv_text(path: &Path, header: &str, rows: impl IntoIterator<Item = String>) {
+    let mut s = String::from(header);
+    s.push('\n');
+    for r in rows {
+        s.push_str(&r);
+        s.push('\n');
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+fn csv_inputs(batch_rows: usize) -> Inputs {
+    let mut inputs = Inputs::default();
+    inputs.open.rate_hz = Some(RATE);
+    inputs.open.batch_rows = batch_rows;
+    inputs
+}
+
+/// Defect: one `abc` at row 500 of a gyro column made schema inference read the column as text, so
+/// it was silently dropped (exit 0, one channel fewer). It must be an error naming file, column, row
+/// and line, wherever the bad cell is (inside the rows used for inference or far beyond them).
+#[test]
+fn a_bad_cell_in_a_csv_channel_names_file_column_row_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("data.csv");
+    let n = 3000;
+    for (bad_row, batch_rows) in [(500usize, 65_536), (500, 128), (2500, 1000), (2500, 7)] {
+        write_csv_text(
+            &path,
+            "gyro_x [deg/s],gyro_y [deg/s],label",
+            (0..n).map(|i| {
+                let x = if i == bad_row { "abc" } else { "0.01" };
+                format!("{x},0.02,run{}", i % 3)
+            }),
+        );
+        let e = err_of(&path, &csv_inputs(batch_rows));
+        assert!(
+            matches!(e, Error::Input(InputError::BadValue { .. })),
+            "{e}"
+        );
+        assert_eq!(
+            (e.column(), e.row()),
+            (Some("gyro_x"), Some(bad_row as u64))
+        );
+        // Row 0 is on line 2 (after the header).
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{}: column \"gyro_x\", row {bad_row} (line {} of the file): \"abc\" is not a number",
+                path.display(),
+                bad_row + 2
+            )
+        );
+    }
+
+    // A column without a unit that is mostly numbers is numeric too; a text column (the label) is
+    // no channel and no error.
+    write_csv_text(
+        &path,
+        "a,label",
+        (0..n).map(|i| {
+            let x = if i == 10 {
+                "n/a".to_string()
+            } else {
+                format!("{}", i)
+            };
+            format!("{x},lbl")
+        }),
+    );
+    let e = err_of(&path, &csv_inputs(65_536));
+    assert_eq!((e.column(), e.row()), (Some("a"), Some(10)), "{e}");
+    assert!(e.to_string().contains("\"n/a\" is not a number"), "{e}");
+
+    write_csv_text(
+        &path,
+        "gyro_x [deg/s],label",
+        (0..n).map(|i| format!("{},lbl{i}", 0.01 * (i % 7) as f64)),
+    );
+    let rec = io::open(&path, &csv_inputs(65_536).open).unwrap();
+    assert_eq!(rec.channel_names(), vec!["gyro_x".to_string()]);
+    let (data, _) = read_all(&path, &csv_inputs(100)).unwrap();
+    let deg = std::f64::consts::PI / 180.0;
+    assert_eq!(data[0].len(), n);
+    assert_eq!(data[0][5], 0.01 * 5.0 * deg);
+}
+
+/// An empty cell is a missing sample (as before): NaN, reported by the quality stage under
+/// `--on-nonfinite` (error by default, naming the row), and so are `NaN`/`inf` written out.
+#[test]
+fn empty_and_non_finite_csv_cells_are_missing_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("gaps.csv");
+    let n = 2000;
+    for (cell, row) in [
+        ("", 1500usize),
+        ("NaN", 20),
+        ("inf", 1999),
+        ("-Infinity", 3),
+        ("  ", 700),
+    ] {
+        // Two columns: in a one-column file an empty cell is a blank line, which CSV readers skip.
+        write_csv_text(
+            &path,
+            "g [rad/s],a [g]",
+            (0..n).map(|i| {
+                let g = if i == row {
+                    cell.to_string()
+                } else {
+                    format!("{}", i as f64)
+                };
+                format!("{g},1")
+            }),
+        );
+        let e = err_of(&path, &csv_inputs(256));
+        assert!(
+            matches!(e, Error::Input(InputError::NonFinite { .. })),
+            "{cell:?}: {e}"
+        );
+        assert_eq!(
+            (e.column(), e.row()),
+            (Some("g"), Some(row as u64)),
+            "{cell:?}"
+        );
+        let mut inputs = csv_inputs(256);
+        inputs.quality.nonfinite = NonFinitePolicy::Interpolate;
+        let (data, report) = read_all(&path, &inputs).unwrap();
+        assert_eq!(report.channels[0].interpolated_samples, 1, "{cell:?}");
+        assert_eq!(data[0].len(), n);
+    }
+}
+
+/// Defect: a `# ...` preamble (as loggers write) was an error. Comment lines before and after the
+/// header are skipped; `# sample_rate_hz: 200` gives the rate; rows and lines in errors still count
+/// right.
+#[test]
+fn csv_comment_lines_are_skipped_and_a_preamble_may_give_the_rate() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("logger.csv");
+    let n = 1500;
+    let mut text = String::from(
+        "# device: IMU-42, firmware 1.2, rate: 200\n# sample_rate_hz: 200\n\ngyro_x [deg/s],accel_z [g]\n",
+    );
+    for i in 0..n {
+        if i == 700 {
+            text.push_str("# re-synchronised\n");
+        }
+        text.push_str(&format!("{},{}\n", i as f64 * 0.5, 1.0));
+    }
+    std::fs::write(&path, &text).unwrap();
+    let rec = io::open(&path, &OpenOptions::default()).unwrap();
+    assert_eq!(rec.rate_hz, 200.0);
+    assert_eq!(rec.rate_source, io::RateSource::Metadata);
+    let (data, report) = read_all(&path, &Inputs::default()).unwrap();
+    assert_eq!(report.samples_out, n as u64);
+    let deg = std::f64::consts::PI / 180.0;
+    assert_eq!(data[0][699], 699.0 * 0.5 * deg);
+    assert_eq!(data[0][700], 700.0 * 0.5 * deg);
+    assert_eq!(data[1][n - 1], 9.80665);
+
+    // A bad cell after the mid-file comment: row 1200 ("600,1") is on line 1206: the header is on
+    // line 4, and the comment at row 700 adds one.
+    std::fs::write(&path, text.replacen("\n600,1\n", "\n600,x1\n", 1)).unwrap();
+    let e = err_of(&path, &Inputs::default());
+    assert_eq!((e.column(), e.row()), (Some("accel_z"), Some(1200)), "{e}");
+    assert!(
+        e.to_string()
+            .contains("row 1200 (line 1206 of the file): \"x1\""),
+        "{e}"
+    );
+
+    // The preamble's rate must agree with --rate like schema metadata does.
+    std::fs::write(&path, &text).unwrap();
+    let mut inputs = Inputs::default();
+    inputs.open.rate_hz = Some(100.0);
+    let e = err_of(&path, &inputs);
+    assert!(
+        matches!(e, Error::Input(InputError::RateConflict { .. })),
+        "{e}"
+    );
+}
+
+/// Records with the wrong number of fields, bytes that are not UTF-8, a header line that holds
+/// numbers: each names the row and line.
+#[test]
+fn malformed_csv_records_name_row_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.csv");
+    let rows = |n: usize| (0..n).map(|i| format!("{i},{i}")).collect::<Vec<_>>();
+    let n = 3000;
+    for bad in [10usize, 2000] {
+        let mut r = rows(n);
+        r[bad] = "1,2,3".into();
+        write_csv_text(&path, "a [rad/s],b [rad/s]", r);
+        let e = err_of(&path, &csv_inputs(512));
+        assert_eq!(e.row(), Some(bad as u64), "{e}");
+        assert!(
+            e.to_string().contains(&format!(
+                "malformed CSV at row {bad} (line {} of the file): 3 fields, but the header has 2",
+                bad + 2
+            )),
+            "{e}"
+        );
+
+        let mut bytes = Vec::new();
+        bytes.extend_from_slice(b"a [rad/s],b [rad/s]\n");
+        for (i, line) in rows(n).iter().enumerate() {
+            if i == bad {
+                bytes.extend_from_slice(b"1,\xff\xfe2\n");
+            } else {
+                bytes.extend_from_slice(line.as_bytes());
+                bytes.push(b'\n');
+            }
+        }
+        std::fs::write(&path, &bytes).unwrap();
+        let e = err_of(&path, &csv_inputs(512));
+        assert_eq!(e.row(), Some(bad as u64), "{e}");
+        assert!(
+            e.to_string()
+                .contains("column \"b\" holds bytes that are not UTF-8"),
+            "{e}"
+        );
+    }
+    write_csv_text(&path, "1.5,2.5", rows(10));
+    let e = err_of(&path, &csv_inputs(512));
+    assert!(e.to_string().contains("a header line"), "{e}");
+}
+
+/// Two columns of the same name: an error naming it, in every format (which one `--channels`
+/// would pick was a guess).
+#[test]
+fn duplicate_column_names_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("dup.csv");
+    write_csv_text(
+        &csv,
+        "g [deg/s],a [g],g [rad/s]",
+        (0..100).map(|i| format!("{i},1,{i}")),
+    );
+    let arrow = recording(
+        dir.path(),
+        "dup.arrow",
+        vec![
+            f64_col("g", noise(100, 1), None),
+            f64_col("g", noise(100, 2), None),
+        ],
+        Some(RATE),
+    );
+    for path in [&csv, &arrow] {
+        let e = err_of(path, &csv_inputs(512));
+        assert!(
+            matches!(e, Error::Input(InputError::DuplicateColumn { .. })),
+            "{e}"
+        );
+        assert_eq!(e.column(), Some("g"));
+        assert!(e.to_string().contains("appears twice"), "{e}");
+    }
+}
+
+/// Defect: a truncated Arrow IPC file read "corrupt or truncated Arrow IPC file file: Parser error:
+/// ...". Every corrupt-file message names the format once, says why when the file shows it, and has
+/// no colon with nothing after it.
+#[test]
+fn corrupt_file_messages_read_well() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = batch(&[f64_col("g", noise(5000, 1), Some("rad/s"))], Some(RATE));
+    let ipc = dir.path().join("x.arrow");
+    write_ipc_file(&ipc, &b, 1000);
+    let stream = dir.path().join("x.arrows");
+    write_ipc_stream(&stream, &b, 1000);
+    let pq = dir.path().join("x.parquet");
+    write_parquet(&pq, &b, 1000);
+    let cut = |path: &Path, keep: usize| {
+        let bytes = std::fs::read(path).unwrap();
+        let cut = path.with_file_name(format!(
+            "cut.{}",
+            path.extension().unwrap().to_str().unwrap()
+        ));
+        std::fs::write(&cut, &bytes[..keep.min(bytes.len())]).unwrap();
+        (cut, bytes.len())
+    };
+    let message = |path: &Path| err_of(path, &Inputs::default()).to_string();
+
+    let (p, len) = cut(&ipc, usize::MAX);
+    let (p, _) = cut(&p, len / 2);
+    assert_eq!(
+        message(&p),
+        format!(
+            "{}: corrupt Arrow IPC file (truncated: footer missing): Arrow file does not contain correct footer",
+            p.display()
+        )
+    );
+    let (p, _) = cut(&ipc, 3);
+    assert_eq!(
+        message(&p),
+        format!(
+            "{}: corrupt Arrow IPC file (truncated): the file is only 3 bytes long",
+            p.display()
+        )
+    );
+    let (p, len) = cut(&pq, usize::MAX);
+    let (p, _) = cut(&p, len - 1);
+    assert_eq!(
+        message(&p),
+        format!(
+            "{}: corrupt Parquet file (truncated: footer missing): Invalid Parquet file. Corrupt footer",
+            p.display()
+        )
+    );
+    // Not the format its name says.
+    let fake = dir.path().join("fake.parquet");
+    std::fs::write(&fake, b"time,g\n0,1\n1,2\n").unwrap();
+    assert!(
+        message(&fake)
+            .contains("corrupt Parquet file (not a Parquet file: it does not start with PAR1)"),
+        "{}",
+        message(&fake)
+    );
+    // A stream cut inside a batch, and one cut just before its end-of-stream marker: both truncated,
+    // at the row where the missing data starts.
+    let (p, len) = cut(&stream, usize::MAX);
+    let (p, _) = cut(&p, len * 2 / 3);
+    let m = message(&p);
+    assert!(
+        m.starts_with(&format!(
+            "{}: corrupt Arrow IPC stream (truncated: the file ends inside a message) at row 3000: ",
+            p.display()
+        )),
+        "{m}"
+    );
+    let (p, _) = cut(&stream, len - 8);
+    assert_eq!(
+        message(&p),
+        format!(
+            "{}: corrupt Arrow IPC stream (truncated: end-of-stream marker missing) at row 5000: the file ends after a complete record batch; the rows after it are missing",
+            p.display()
+        )
+    );
+    for m in [message(&ipc.with_file_name("cut.arrow")), m] {
+        assert!(
+            !m.contains("file file") && !m.ends_with(':') && !m.contains("error:"),
+            "{m}"
+        );
+    }
+}
