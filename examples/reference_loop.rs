@@ -49,6 +49,11 @@ fn report(name: &str, o: &LoopOutcome) {
     if r.steps.is_empty() {
         println!("loop: nothing beyond the IEEE model");
     }
+    // Fractional frequency: a plain number.
+    let units = imunoise::report::EffectUnits {
+        value: Some(imunoise::units::Unit::One),
+        ..Default::default()
+    };
     for (i, s) in r.steps.iter().enumerate() {
         let fig = |d: &Option<imunoise::effects::residuals::Diagnostics>| {
             d.as_ref().map_or("–".to_string(), |d| {
@@ -58,7 +63,7 @@ fn report(name: &str, o: &LoopOutcome) {
         println!(
             "step {}: {} (ΔBIC {:.1})\n  evidence: {}\n  Allan    {} → {}\n  spectrum {} → {}",
             i + 1,
-            imunoise::report::effect_line(&s.effect),
+            imunoise::report::effect_line(&s.effect, &units),
             s.delta_bic,
             s.evidence,
             fig(&s.before.allan),

@@ -145,6 +145,26 @@ impl Unit {
         }
     }
 
+    /// The label for people, with typographic symbols: `m/s²`, `°/h`, `µg`, `°C` (the canonical
+    /// [`as_str`](Self::as_str) spelling stays ASCII for files and flags).
+    pub fn pretty(self) -> &'static str {
+        match self {
+            Unit::RadPerS => "rad/s",
+            Unit::MilliradPerS => "mrad/s",
+            Unit::DegPerS => "°/s",
+            Unit::DegPerH => "°/h",
+            Unit::MPerS2 => "m/s²",
+            Unit::G => "g",
+            Unit::MilliG => "mg",
+            Unit::MicroG => "µg",
+            Unit::DegC => "°C",
+            Unit::Kelvin => "K",
+            Unit::Volt => "V",
+            Unit::MilliVolt => "mV",
+            Unit::One => "1",
+        }
+    }
+
     /// The accepted spellings, for help texts and error messages.
     pub fn accepted() -> String {
         SPELLINGS
@@ -263,6 +283,14 @@ mod tests {
             msg.contains("furlong/fortnight") && msg.contains("deg/s"),
             "{msg}"
         );
+    }
+
+    #[test]
+    fn pretty_labels_name_the_same_unit_as_the_canonical_ones() {
+        for (_, unit) in SPELLINGS {
+            // Every pretty label is itself an accepted spelling of the same unit.
+            assert_eq!(unit.pretty().parse::<Unit>().unwrap(), *unit, "{unit}");
+        }
     }
 
     #[test]

@@ -5,11 +5,13 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use imunoise::estimate::{Backend, CpuBackend};
-use imunoise::gpu::{GpuBackend, GpuError};
+use imunoise::gpu::GpuError;
 use imunoise::pipeline::{self, FileResult, Progress};
-use imunoise::report::{self, OutputError};
-use indicatif::{ProgressBar, ProgressStyle};
+use imunoise::report::format::{count, count_as, duration, rate_hz, throughput};
+use imunoise::report::{self, EffectUnits, OutputError};
+use indicatif::{ProgressBar, ProgressState, ProgressStyle};
 
+use super::backend::{gpu_failure, Chatter};
 use super::config::{BackendChoice, Job};
 
 /// Exit codes (as ripgrep): all fine, some inputs failed, usage or fatal error.
@@ -28,12 +30,7 @@ impl Bar {
     fn new(total: usize, quiet: bool) -> Self {
         let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
             let b = ProgressBar::new_spinner();
-            b.set_style(
-                ProgressStyle::with_template(
-                    "{spinner} {msg} {human_pos} rows ({per_sec}) {elapsed}",
-                )
-                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-            );
+            b.set_style(bar_style());
             b.enable_steady_tick(Duration::from_millis(200));
             b
         });
@@ -49,6 +46,14 @@ impl Bar {
         match &self.bar {
             Some(b) => b.suspend(|| eprintln!("{text}")),
             None => eprintln!("{text}"),
+        }
+    }
+
+    /// [`print_stdout`] without tearing the bar (both may be the same terminal).
+    fn stdout(&self, text: &str, separate: bool) -> bool {
+        match &self.bar {
+            Some(b) => b.suspend(|| print_stdout(text, separate)),
+            None => print_stdout(text, separate),
         }
     }
 }
@@ -73,19 +78,36 @@ impl Progress for Bar {
     }
 }
 
+/// The progress line: a spinner, the file, rows read, the throughput rounded to 3 digits
+/// (indicatif's own `{per_sec}` prints `4,989,290.1875/s`) and the elapsed time.
+fn bar_style() -> ProgressStyle {
+    ProgressStyle::with_template("{spinner} {msg} {human_pos} rows ({rate}) {elapsed}")
+        .map(|style| {
+            style.with_key(
+                "rate",
+                |state: &ProgressState, w: &mut dyn std::fmt::Write| {
+                    let _ = w.write_str(&throughput(state.per_sec(), "rows"));
+                },
+            )
+        })
+        .unwrap_or_else(|_| ProgressStyle::default_spinner())
+}
+
 fn summary_line(r: &FileResult) -> String {
     let q = &r.quality;
     let mut notes = Vec::new();
     if q.gap_count > 0 {
         notes.push(format!(
-            "{} gaps ({} samples missing)",
-            q.gap_count, q.missing_samples
+            "{} ({} missing)",
+            count(q.gap_count, "gap"),
+            count(q.missing_samples, "sample")
         ));
     }
     let nonfinite: u64 = q.channels.iter().map(|c| c.nonfinite_samples).sum();
     if nonfinite > 0 {
         notes.push(format!(
-            "{nonfinite} non-finite samples ({})",
+            "{} ({})",
+            count(nonfinite, "non-finite sample"),
             q.nonfinite_policy
         ));
     }
@@ -98,43 +120,26 @@ fn summary_line(r: &FileResult) -> String {
         format!("; {}", notes.join(", "))
     };
     format!(
-        "ok    {}: {} channels, {} samples at {} Hz ({:.1} s){notes}",
+        "ok    {}: {}, {} at {}, {}{notes}",
         r.recording.path.display(),
-        r.recording.channels.len(),
-        q.samples_out,
-        r.recording.rate_hz,
-        q.duration_s,
+        count(r.recording.channels.len() as u64, "channel"),
+        count(q.samples_out, "sample"),
+        rate_hz(r.recording.rate_hz),
+        duration(q.duration_s),
     )
 }
 
 /// The backend asked for. `info` estimates nothing, so it never opens a GPU.
 fn backend(job: &Job) -> Result<Box<dyn Backend>, GpuError> {
     let estimates = job.work.welch.is_some() || job.work.avar.is_some();
-    match job.backend {
-        BackendChoice::Cpu => Ok(Box::new(CpuBackend)),
-        _ if !estimates => Ok(Box::new(CpuBackend)),
-        BackendChoice::Gpu => Ok(Box::new(GpuBackend::new()?)),
-        BackendChoice::Auto => match GpuBackend::new() {
-            // A software rasteriser (lavapipe/llvmpipe) is slower than the CPU path: auto means
-            // "a real GPU if there is one"; --backend gpu still takes it.
-            Ok(gpu) if gpu.context().adapter_info().device_type == wgpu::DeviceType::Cpu => {
-                if !job.output.quiet {
-                    eprintln!(
-                        "imunoise: only a software GPU ({}); computing on the CPU (--backend gpu forces it)",
-                        gpu.context().adapter_info().name
-                    );
-                }
-                Ok(Box::new(CpuBackend))
-            }
-            Ok(gpu) => Ok(Box::new(gpu)),
-            Err(e) => {
-                if !job.output.quiet {
-                    eprintln!("imunoise: no usable GPU ({e}); computing on the CPU");
-                }
-                Ok(Box::new(CpuBackend))
-            }
-        },
+    if !estimates {
+        return Ok(Box::new(CpuBackend));
     }
+    let chatter = Chatter {
+        verbose: job.output.verbose,
+        quiet: job.output.quiet,
+    };
+    super::backend::choose(job.backend, chatter)
 }
 
 /// Runs the job; returns the process exit code.
@@ -143,7 +148,7 @@ pub fn run(job: &Job) -> i32 {
     let backend = match backend(job) {
         Ok(b) => b,
         Err(e) => {
-            eprintln!("imunoise: --backend gpu: {e}");
+            eprintln!("imunoise: {}", gpu_failure(&e, job.output.verbose));
             return EXIT_FATAL;
         }
     };
@@ -153,7 +158,11 @@ pub fn run(job: &Job) -> i32 {
     }
     let backend = backend.as_ref();
     let bar = Bar::new(job.files.len(), job.output.quiet);
-    if !job.output.json_stdout {
+    // `info` prints a table on stdout and writes files only into a folder asked for with -o.
+    let info_table = job.command == "info" && !job.output.json_stdout;
+    let write_files = !job.output.json_stdout && (job.command != "info" || job.output.dir_given);
+    let mut stdout_open = true;
+    if write_files {
         if let Err(e) = std::fs::create_dir_all(&job.output.dir) {
             eprintln!(
                 "imunoise: cannot create output folder {}: {e}",
@@ -168,8 +177,18 @@ pub fn run(job: &Job) -> i32 {
     for path in &job.files {
         match pipeline::run(path, &job.inputs, &job.work, backend, &bar) {
             Ok(r) => {
-                if !job.output.quiet {
+                if info_table {
+                    // The table is the per-file line; stdout closed (`| head`) ends the printing.
+                    if stdout_open {
+                        stdout_open = bar.stdout(&report::info_text(&r), !ok.is_empty());
+                    }
+                } else if !job.output.quiet {
                     bar.line(&summary_line(&r));
+                }
+                if !job.output.quiet && !info_table {
+                    for note in &r.recording.notes {
+                        bar.line(&format!("note  {}: {note}", path.display()));
+                    }
                 }
                 for a in r.analysis.iter().flatten() {
                     if let (Some(b), false) = (&a.bandwidth, job.output.quiet) {
@@ -188,14 +207,15 @@ pub fn run(job: &Job) -> i32 {
                             "warning {} {}: {}",
                             path.display(),
                             a.channel,
-                            w.describe()
+                            report::warning_line(w, a.sensor)
                         ));
                     }
                     let Some(l) = &a.residual_loop else { continue };
+                    let units = EffectUnits::of(&r.recording, &a.channel);
                     let found: Vec<String> = l
                         .steps
                         .iter()
-                        .map(|s| report::effect_line(&s.effect))
+                        .map(|s| report::effect_line(&s.effect, &units))
                         .collect();
                     if !job.output.quiet {
                         bar.line(&format!(
@@ -209,8 +229,10 @@ pub fn run(job: &Job) -> i32 {
                         ));
                     }
                 }
-                for note in &r.backend_notes {
-                    bar.line(&format!("note  {}: {note}", path.display()));
+                if !info_table {
+                    for note in &r.backend_notes {
+                        bar.line(&format!("note  {}: {note}", path.display()));
+                    }
                 }
                 entries.push(report::file_json(&r));
                 ok.push(r);
@@ -236,25 +258,47 @@ pub fn run(job: &Job) -> i32 {
     );
     let written = if job.output.json_stdout {
         print_json(&doc)
-    } else {
+    } else if write_files {
         write_outputs(job, &ok, &failures, &doc, elapsed_s)
+    } else {
+        Ok(())
     };
     if let Err(e) = written {
         eprintln!("imunoise: {e}");
         return EXIT_FATAL;
     }
-    if !job.output.quiet && !job.output.json_stdout {
+    let files = count_as(job.files.len() as u64, "file", "files");
+    if !job.output.quiet && write_files {
         eprintln!(
-            "{} of {} files ok; results in {}",
+            "{} of {files} ok; results in {}",
             job.files.len() - failed,
-            job.files.len(),
             job.output.dir.display()
         );
+    } else if !job.output.quiet && info_table && failed > 0 {
+        eprintln!("{} of {files} ok", job.files.len() - failed);
     }
     if failed > 0 {
         EXIT_SOME_FAILED
     } else {
         EXIT_OK
+    }
+}
+
+/// Prints `text` on stdout, after a blank line when `separate`; returns whether stdout is still
+/// open (a closed pipe, `| head`, is not an error: printing just stops).
+fn print_stdout(text: &str, separate: bool) -> bool {
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    let result = (if separate { writeln!(out) } else { Ok(()) })
+        .and_then(|_| out.write_all(text.as_bytes()))
+        .and_then(|_| out.flush());
+    match result {
+        Ok(()) => true,
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => false,
+        Err(e) => {
+            eprintln!("imunoise: cannot write to stdout: {e}");
+            false
+        }
     }
 }
 
@@ -345,4 +389,87 @@ fn per_file_folders(ok: &[FileResult]) -> Vec<String> {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::{Arc, Mutex};
+
+    use indicatif::{ProgressBar, ProgressDrawTarget, TermLike};
+
+    use super::bar_style;
+
+    /// A terminal that keeps what is drawn on it.
+    #[derive(Debug, Clone, Default)]
+    struct Screen(Arc<Mutex<String>>);
+
+    impl TermLike for Screen {
+        fn width(&self) -> u16 {
+            200
+        }
+        fn move_cursor_up(&self, _: usize) -> std::io::Result<()> {
+            Ok(())
+        }
+        fn move_cursor_down(&self, _: usize) -> std::io::Result<()> {
+            Ok(())
+        }
+        fn move_cursor_right(&self, _: usize) -> std::io::Result<()> {
+            Ok(())
+        }
+        fn move_cursor_left(&self, _: usize) -> std::io::Result<()> {
+            Ok(())
+        }
+        fn write_line(&self, s: &str) -> std::io::Result<()> {
+            self.0.lock().unwrap().push_str(&format!("{s}\n"));
+            Ok(())
+        }
+        fn write_str(&self, s: &str) -> std::io::Result<()> {
+            self.0.lock().unwrap().push_str(s);
+            Ok(())
+        }
+        fn clear_line(&self) -> std::io::Result<()> {
+            self.0.lock().unwrap().push('\n');
+            Ok(())
+        }
+        fn flush(&self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// The bar once showed indicatif's `{per_sec}`: `4,989,290.1875/s`.
+    #[test]
+    fn the_progress_bar_shows_throughput_to_three_digits_with_its_unit() {
+        let screen = Screen::default();
+        let bar = ProgressBar::with_draw_target(
+            None,
+            ProgressDrawTarget::term_like(Box::new(screen.clone())),
+        );
+        bar.set_style(bar_style());
+        bar.set_message("[1/1] x.arrow");
+        for _ in 0..20 {
+            bar.inc(49_893);
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        bar.tick();
+        let text = screen.0.lock().unwrap().clone();
+        let last = text.lines().rev().find(|l| l.contains("rows (")).unwrap();
+        let rate = last
+            .split_once("rows (")
+            .and_then(|(_, r)| r.split_once(')'))
+            .map(|(r, _)| r)
+            .unwrap();
+        let number = rate
+            .strip_suffix(" rows/s")
+            .unwrap_or_else(|| panic!("{last:?}"));
+        let number = number
+            .strip_suffix(" k")
+            .or_else(|| number.strip_suffix(" M"))
+            .or_else(|| number.strip_suffix(" G"))
+            .unwrap_or(number);
+        let digits = number.chars().filter(char::is_ascii_digit).count();
+        assert!(
+            number.parse::<f64>().is_ok() && digits <= 3 && !number.contains(','),
+            "{last:?}"
+        );
+    }
 }

@@ -39,6 +39,11 @@ pub struct ContextOptions {
     /// more, smaller batches; chunking for the device's binding limits happens regardless), and
     /// the most bytes of idle buffers the context keeps for reuse.
     pub memory_budget: u64,
+    /// Send the process's stderr (fd 2) to /dev/null while the instance, adapter and device are
+    /// created (see [`probe_quietly`]): Mesa and the Vulkan loader write warnings such as
+    /// "XDG_RUNTIME_DIR is invalid" straight to fd 2 during enumeration. Off by default: it
+    /// affects every thread of the process for that moment.
+    pub quiet_probe: bool,
 }
 
 impl Default for ContextOptions {
@@ -49,6 +54,98 @@ impl Default for ContextOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
             backends: None,
             memory_budget: 512 << 20,
+            quiet_probe: false,
+        }
+    }
+}
+
+/// Runs `f` with the process's stderr (file descriptor 2) sent to /dev/null when `quiet`, and
+/// restores it afterwards on every path: on return, on error (an `Err` is a value, printed by the
+/// caller after the restore) and on a panic (whose message, which the panic hook wrote into
+/// /dev/null, is printed again once stderr is back, before the panic continues). Graphics drivers
+/// write to fd 2 directly, past Rust's `stderr`, so only the descriptor can silence them.
+///
+/// While `f` runs, whatever any thread writes to stderr is lost: call it before other threads
+/// print (the CLI probes before it starts its progress bar). Quiet probes are serialised, so two
+/// at once cannot save each other's /dev/null as "the" stderr. Unix only; elsewhere `f` just runs.
+pub fn probe_quietly<T>(quiet: bool, f: impl FnOnce() -> T) -> T {
+    if !quiet {
+        return f();
+    }
+    static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+    let _serial = ONE_AT_A_TIME.lock().unwrap_or_else(PoisonError::into_inner);
+    let silenced = silence::Stderr::to_null();
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
+    drop(silenced);
+    match result {
+        Ok(v) => v,
+        Err(payload) => {
+            let message = payload
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "(no message)".into());
+            eprintln!("imunoise: panic while opening the GPU: {message}");
+            std::panic::resume_unwind(payload)
+        }
+    }
+}
+
+#[cfg(unix)]
+mod silence {
+    use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
+    use std::os::raw::c_int;
+
+    // From the C library std links on every Unix (the `libc` crate declares the same).
+    extern "C" {
+        fn dup(fd: c_int) -> c_int;
+        fn dup2(from: c_int, to: c_int) -> c_int;
+    }
+
+    const STDERR: c_int = 2;
+
+    /// fd 2 pointed at /dev/null until dropped; the original is kept in `saved`. `saved` is `None`
+    /// when anything failed, and then fd 2 was never touched.
+    pub struct Stderr {
+        saved: Option<OwnedFd>,
+    }
+
+    impl Stderr {
+        pub fn to_null() -> Stderr {
+            let Ok(null) = std::fs::OpenOptions::new().write(true).open("/dev/null") else {
+                return Stderr { saved: None };
+            };
+            // SAFETY: dup has no memory-safety preconditions; a non-negative result is a new
+            // descriptor that nothing else owns, so OwnedFd may take it (and close it on drop).
+            let saved = unsafe { dup(STDERR) };
+            if saved < 0 {
+                return Stderr { saved: None };
+            }
+            let saved = unsafe { OwnedFd::from_raw_fd(saved) };
+            // SAFETY: both descriptors are open; dup2 atomically replaces fd 2.
+            if unsafe { dup2(null.as_raw_fd(), STDERR) } < 0 {
+                return Stderr { saved: None };
+            }
+            Stderr { saved: Some(saved) }
+        }
+    }
+
+    impl Drop for Stderr {
+        fn drop(&mut self) {
+            if let Some(saved) = &self.saved {
+                // SAFETY: `saved` is open (owned here); dup2 points fd 2 back at the original.
+                unsafe { dup2(saved.as_raw_fd(), STDERR) };
+            }
+        }
+    }
+}
+
+#[cfg(not(unix))]
+mod silence {
+    pub struct Stderr;
+    impl Stderr {
+        pub fn to_null() -> Stderr {
+            Stderr
         }
     }
 }
@@ -132,8 +229,10 @@ impl GpuContext {
 
     /// A device chosen and configured by `options`.
     pub fn with_options(options: &ContextOptions) -> Result<GpuContext, GpuError> {
-        let adapter = request_adapter(options)?;
-        GpuContext::on_adapter(&adapter, options)
+        probe_quietly(options.quiet_probe, || {
+            let adapter = request_adapter(options)?;
+            GpuContext::on_adapter(&adapter, options)
+        })
     }
 
     /// A device on a given adapter.
@@ -386,4 +485,33 @@ pub fn local_fft_size(storage: u32) -> Option<u32> {
         l /= 2;
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Where fd 2 points, as the kernel names it.
+    #[cfg(target_os = "linux")]
+    fn stderr_target() -> std::path::PathBuf {
+        std::fs::read_link("/proc/self/fd/2").unwrap()
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_quiet_probe_hides_fd_2_and_restores_it_on_every_path() {
+        let before = stderr_target();
+        let inside = probe_quietly(true, stderr_target);
+        assert_eq!(inside, std::path::Path::new("/dev/null"));
+        assert_eq!(stderr_target(), before, "restored after a return");
+        let err: Result<(), GpuError> =
+            probe_quietly(true, || Err(GpuError::NoAdapter("none".into())));
+        assert!(err.is_err());
+        assert_eq!(stderr_target(), before, "restored after an error");
+        let panicked = std::panic::catch_unwind(|| probe_quietly(true, || panic!("in the probe")));
+        assert!(panicked.is_err());
+        assert_eq!(stderr_target(), before, "restored after a panic");
+        // Not quiet (-v): untouched.
+        assert_eq!(probe_quietly(false, stderr_target), before);
+    }
 }

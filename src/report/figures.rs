@@ -6,28 +6,66 @@ use crate::analysis::ChannelAnalysis;
 use crate::avar::Deviations;
 use crate::effects::shapes::{GaussMarkov1, Resonance};
 use crate::effects::Effect;
+use crate::estimate::ChannelPsd;
 use crate::model::{EffectShape, NoiseFit};
-use crate::pipeline::ChannelPsd;
 
+use crate::units::Unit;
+
+use super::format::{engineering_unit, sig4};
+use super::model::units_of;
 use super::plot::{Color, Corner, Figure, Panel, Series, Style, PALETTE};
 
 const GRAY: Color = Color::GRAY;
 
+/// An amplitude of the channel (SI `unit`) for a legend, in the engineering unit where there is one
+/// (°/h, mg), else in `unit`: `0.2070 mg`.
+fn amount(v: f64, unit: Option<Unit>) -> String {
+    match unit {
+        Some(u) => {
+            let shown = engineering_unit(u).unwrap_or(u);
+            format!("{} {}", sig4(v / shown.to_si().0), shown.pretty())
+        }
+        None => sig4(v),
+    }
+}
+
+/// A fitted IEEE coefficient for a legend, in its datasheet unit: `N = 0.1502 °/√h`.
+fn coefficient(a: &ChannelAnalysis, term: crate::model::Term, value: f64) -> String {
+    let [_, u, _] = units_of(a.sensor, term);
+    format!(
+        "{} = {} {}",
+        term.symbol(),
+        sig4(u.from_si(value)),
+        u.pretty()
+    )
+}
+
 /// The stochastic effect of the final model, as a shape with its fitted amplitude.
-fn stochastic(a: &ChannelAnalysis, fs: f64) -> Option<(Box<dyn EffectShape>, f64, String)> {
+fn stochastic(
+    a: &ChannelAnalysis,
+    fs: f64,
+    unit: Option<Unit>,
+) -> Option<(Box<dyn EffectShape>, f64, String)> {
     let steps = &a.residual_loop.as_ref()?.steps;
     steps.iter().find_map(|s| match &s.effect {
         Effect::GaussMarkov { tc_s, sigma } => Some((
             Box::new(GaussMarkov1 { tc_s: *tc_s }) as Box<dyn EffectShape>,
             sigma.value,
-            format!("Gauss–Markov Tc = {tc_s:.3} s"),
+            format!(
+                "Gauss–Markov Tc = {} s, σ = {}",
+                sig4(*tc_s),
+                amount(sigma.value, unit)
+            ),
         )),
         Effect::Resonance {
             f0_hz, q, sigma, ..
         } => Some((
             Box::new(Resonance::new(*f0_hz, *q, fs)) as Box<dyn EffectShape>,
             sigma.value,
-            format!("resonance {f0_hz:.3} Hz, Q = {q:.1}"),
+            format!(
+                "resonance {f0_hz:.3} Hz, Q = {q:.1}, σ = {}",
+                amount(sigma.value, unit)
+            ),
         )),
         _ => None,
     })
@@ -76,15 +114,17 @@ fn residual_panel(x_label: &str, fit: Option<&NoiseFit>, base: Option<&NoiseFit>
 }
 
 /// The Allan-deviation figure of one channel.
-pub fn avar_figure(a: &ChannelAnalysis, original: &Deviations, unit: &str) -> Figure {
+/// `unit`: the SI unit of the channel's values (`None`: a channel without one, shown as "raw").
+pub fn avar_figure(a: &ChannelAnalysis, original: &Deviations, unit: Option<Unit>) -> Figure {
     let fs = original.rate_hz;
+    let label = unit.map_or("raw", Unit::pretty);
     let corrected = a
         .residual_loop
         .as_ref()
         .and_then(|l| l.corrected.as_ref())
         .map(|c| &c.0);
     let shown = corrected.unwrap_or(original);
-    let mut main = Panel::loglog("τ (s)", &format!("Allan deviation ({unit})"));
+    let mut main = Panel::loglog("τ (s)", &format!("Allan deviation ({label})"));
     main.legend_at = Corner::Auto;
     main.series.push(Series::Band {
         label: Some(format!("{:.0} % interval", 100.0 * shown.confidence)),
@@ -131,7 +171,7 @@ pub fn avar_figure(a: &ChannelAnalysis, original: &Deviations, unit: &str) -> Fi
     if let Some(fit) = fit {
         for (k, e) in fit.estimates.iter().enumerate() {
             main.series.push(Series::line(
-                &format!("{} = {:.3e}", e.term.symbol(), e.value),
+                &coefficient(a, e.term, e.value),
                 taus.clone(),
                 taus.iter()
                     .map(|&t| e.value * e.term.avar_unit(t).sqrt())
@@ -139,7 +179,7 @@ pub fn avar_figure(a: &ChannelAnalysis, original: &Deviations, unit: &str) -> Fi
                 Style::dashed(PALETTE[(k + 1) % PALETTE.len()]),
             ));
         }
-        let effect = stochastic(a, fs);
+        let effect = stochastic(a, fs, unit);
         if let Some((shape, amp, label)) = &effect {
             main.series.push(Series::line(
                 label,
@@ -179,14 +219,17 @@ pub fn avar_figure(a: &ChannelAnalysis, original: &Deviations, unit: &str) -> Fi
 }
 
 /// The spectrum figure of one channel (one-sided density).
-pub fn psd_figure(a: &ChannelAnalysis, original: &ChannelPsd, unit: &str) -> Figure {
+///
+/// `unit`: the SI unit of the channel's values (`None`: a channel without one, shown as "raw").
+pub fn psd_figure(a: &ChannelAnalysis, original: &ChannelPsd, unit: Option<Unit>) -> Figure {
+    let label = unit.map_or("raw", Unit::pretty);
     let psd = a
         .residual_loop
         .as_ref()
         .and_then(|l| l.corrected.as_ref())
         .map_or(&original.psd, |c| &c.1);
     let fs = psd.rate_hz;
-    let mut main = Panel::loglog("f (Hz)", &format!("PSD, one-sided (({unit})²/Hz)"));
+    let mut main = Panel::loglog("f (Hz)", &format!("PSD, one-sided (({label})²/Hz)"));
     main.legend_at = Corner::Auto;
     let (x, y): (Vec<f64>, Vec<f64>) = psd
         .freq_hz
@@ -215,7 +258,7 @@ pub fn psd_figure(a: &ChannelAnalysis, original: &ChannelPsd, unit: &str) -> Fig
         let freqs = log_grid(f_lo, fs / 2.0, 300);
         for (k, e) in fit.estimates.iter().enumerate() {
             main.series.push(Series::line(
-                &format!("{} = {:.3e}", e.term.symbol(), e.value),
+                &coefficient(a, e.term, e.value),
                 freqs.clone(),
                 freqs
                     .iter()
@@ -224,7 +267,7 @@ pub fn psd_figure(a: &ChannelAnalysis, original: &ChannelPsd, unit: &str) -> Fig
                 Style::dashed(PALETTE[(k + 1) % PALETTE.len()]),
             ));
         }
-        let effect = stochastic(a, fs);
+        let effect = stochastic(a, fs, unit);
         main.series.push(Series::line(
             "model",
             freqs.clone(),
@@ -249,7 +292,11 @@ pub fn psd_figure(a: &ChannelAnalysis, original: &ChannelPsd, unit: &str) -> Fig
         let (f, label) = match &s.effect {
             Effect::Sinusoid(sine) => (
                 sine.freq_hz,
-                format!("line {:.3} Hz (removed)", sine.freq_hz),
+                format!(
+                    "line {:.3} Hz, {} (removed)",
+                    sine.freq_hz,
+                    amount(sine.amplitude, unit)
+                ),
             ),
             Effect::Resonance { f0_hz, .. } => (*f0_hz, format!("resonance {f0_hz:.3} Hz")),
             _ => continue,

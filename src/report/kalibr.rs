@@ -16,9 +16,9 @@
 use std::fmt::Write;
 
 use crate::analysis::ChannelAnalysis;
-use crate::model::{NoiseFit, Sensor, Term};
+use crate::model::{CoefUnit, NoiseFit, Sensor, Term};
 
-use super::summary::sig4;
+use super::format::sig;
 
 /// The value Kalibr gets for `term` of one channel: (SI value, is an upper limit, domain).
 fn value_of(a: &ChannelAnalysis, term: Term) -> Option<(f64, bool, &'static str)> {
@@ -38,9 +38,14 @@ fn value_of(a: &ChannelAnalysis, term: Term) -> Option<(f64, bool, &'static str)
         .or_else(|| a.spectrum_fit().and_then(|f| pick(f, "PSD")))
 }
 
-fn describe(v: Option<(f64, bool, &'static str)>) -> String {
+/// `4.3630e-5 rad/s/sqrt(Hz) (combined)`: the value in the SI unit of its term.
+fn describe(v: Option<(f64, bool, &'static str)>, sensor: Sensor, term: Term) -> String {
     match v {
-        Some((x, upper, domain)) => format!("{}{x:.4e} ({domain})", if upper { "< " } else { "" }),
+        Some((x, upper, domain)) => format!(
+            "{}{x:.4e} {} ({domain})",
+            if upper { "< " } else { "" },
+            CoefUnit::si(sensor, term).label()
+        ),
         None => "not available".into(),
     }
 }
@@ -98,9 +103,17 @@ pub fn imu_yaml(source: &str, rate_hz: f64, topic: &str, analysis: &[ChannelAnal
                 out,
                 "#   {}: N = {}, K = {}, B = {}",
                 a.channel,
-                describe(value_of(a, Term::RandomWalk)),
-                describe(value_of(a, Term::RateRandomWalk)),
-                describe(value_of(a, Term::BiasInstability)),
+                describe(value_of(a, Term::RandomWalk), sensor, Term::RandomWalk),
+                describe(
+                    value_of(a, Term::RateRandomWalk),
+                    sensor,
+                    Term::RateRandomWalk
+                ),
+                describe(
+                    value_of(a, Term::BiasInstability),
+                    sensor,
+                    Term::BiasInstability
+                ),
             );
         }
         for (term, key) in [
@@ -124,7 +137,7 @@ pub fn imu_yaml(source: &str, rate_hz: f64, topic: &str, analysis: &[ChannelAnal
     let _ = writeln!(
         out,
         "#\n# update_rate: the recording's sample rate, Hz ({}).",
-        sig4(rate_hz)
+        sig(rate_hz, 6)
     );
     for k in keys {
         let _ = writeln!(out, "{k}");

@@ -8,6 +8,8 @@
 
 mod atomic;
 mod figures;
+pub mod format;
+mod info;
 mod kalibr;
 mod model;
 pub mod plot;
@@ -20,9 +22,11 @@ use serde_json::{json, Value};
 
 pub use atomic::{write_atomically, OutputError};
 pub use figures::{avar_figure, psd_figure};
+pub use format::sig4;
+pub use info::info_text;
 pub use kalibr::imu_yaml;
 pub use model::{analysis_json, coefficients_table, units_of};
-pub use summary::{effect_line, sig4, summary_markdown};
+pub use summary::{effect_line, summary_markdown, warning_line, EffectUnits};
 pub use table::{Column, Table};
 
 use crate::avar::Deviations;
@@ -343,8 +347,7 @@ pub fn write_plots(folder: &Path, r: &FileResult) -> Result<(), OutputError> {
         return Ok(());
     };
     for a in analysis {
-        let unit =
-            channel_unit(&r.recording, &a.channel).map_or("raw".to_string(), |u| u.to_string());
+        let unit = channel_unit(&r.recording, &a.channel);
         let mut figures = Vec::new();
         if let Some(d) = r
             .avar
@@ -353,10 +356,10 @@ pub fn write_plots(folder: &Path, r: &FileResult) -> Result<(), OutputError> {
             .find(|c| c.channel == a.channel)
             .and_then(crate::analysis::oadev)
         {
-            figures.push(("avar", avar_figure(a, d, &unit)));
+            figures.push(("avar", avar_figure(a, d, unit)));
         }
         if let Some(p) = r.psd.iter().flatten().find(|c| c.channel == a.channel) {
-            figures.push(("psd", psd_figure(a, p, &unit)));
+            figures.push(("psd", psd_figure(a, p, unit)));
         }
         for (what, fig) in figures {
             let stem = folder.join(format!("{}_{what}", a.channel));

@@ -8,27 +8,13 @@ use std::fmt::Write;
 use crate::analysis::ChannelAnalysis;
 use crate::effects::slow::DriftShape;
 use crate::effects::{Effect, ErrorFigures};
-use crate::model::{NoiseFit, Sensor, Term, TermEstimate};
+use crate::io::Recording;
+use crate::model::{FitWarning, NoiseFit, Sensor, Term, TermEstimate};
 use crate::pipeline::FileResult;
+use crate::units::Unit;
 
+use super::format::{count, count_as, duration, rate_hz, sig, sig4, Shown};
 use super::model::units_of;
-
-/// Four significant digits, plain or scientific as fits the magnitude.
-pub fn sig4(v: f64) -> String {
-    if !v.is_finite() {
-        return "–".into();
-    }
-    if v == 0.0 {
-        return "0".into();
-    }
-    let e = v.abs().log10().floor();
-    if (-3.0..5.0).contains(&e) {
-        let decimals = (3.0 - e).max(0.0) as usize;
-        format!("{v:.decimals$}")
-    } else {
-        format!("{v:.3e}")
-    }
-}
 
 fn cell(e: Option<&TermEstimate>, unit: crate::model::CoefUnit) -> String {
     match e {
@@ -118,31 +104,36 @@ fn file_section(out: &mut String, r: &FileResult) {
     let _ = writeln!(out, "\n## {}\n", r.recording.path.display());
     let _ = writeln!(
         out,
-        "{} samples per channel at {} Hz ({:.1} min), {} channels; backend: {}.",
-        q.samples_out,
-        r.recording.rate_hz,
-        q.duration_s / 60.0,
-        r.recording.channels.len(),
+        "{} per channel at {}, {}, {}; backend: {}.",
+        count(q.samples_out, "sample"),
+        rate_hz(r.recording.rate_hz),
+        duration(q.duration_s),
+        count(r.recording.channels.len() as u64, "channel"),
         r.backend
     );
     let mut notes = Vec::new();
     if q.gap_count > 0 {
         notes.push(format!(
-            "{} gaps, {} samples missing (policy {})",
-            q.gap_count, q.missing_samples, q.gap_policy
+            "{}, {} missing (policy {})",
+            count(q.gap_count, "gap"),
+            count(q.missing_samples, "sample"),
+            q.gap_policy
         ));
     }
     for c in &q.channels {
         if c.nonfinite_samples > 0 {
             notes.push(format!(
-                "{}: {} non-finite samples (policy {})",
-                c.name, c.nonfinite_samples, q.nonfinite_policy
+                "{}: {} (policy {})",
+                c.name,
+                count(c.nonfinite_samples, "non-finite sample"),
+                q.nonfinite_policy
             ));
         }
         if c.summary.possibly_saturated {
             notes.push(format!("{}: possibly saturated", c.name));
         }
     }
+    notes.extend(r.recording.notes.iter().cloned());
     notes.extend(r.backend_notes.iter().cloned());
     for n in notes {
         let _ = writeln!(out, "- {n}");
@@ -202,7 +193,7 @@ fn file_section(out: &mut String, r: &FileResult) {
             chi2(a.spectrum_fit())
         );
     }
-    loop_section(out, analysis);
+    loop_section(out, &r.recording, analysis);
     for a in analysis {
         for (what, r) in [("AV", &a.allan), ("PSD", &a.spectrum)] {
             if let Some(reason) = failure(r) {
@@ -240,21 +231,22 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
             });
             let _ = writeln!(
                 out,
-                "| {} | {} | {} {} | [{}, {}]{} | {source}{ambiguous} | {} | {} |",
+                "| {} | {} | {} {unit} | [{}, {}] {unit}{} | {source}{ambiguous} | {} | {} |",
                 a.channel,
                 t.term.symbol(),
                 sig4(u1.from_si(t.value)),
-                u1.pretty(),
                 sig4(u1.from_si(t.lo)),
                 sig4(u1.from_si(t.hi)),
                 if t.hull { " (both fits)" } else { "" },
                 read.map_or("–".into(), |r| format!(
-                    "{} at τ = {} s",
+                    "{} {} at τ = {} s",
                     sig4(u1.from_si(r.value)),
+                    u1.pretty(),
                     sig4(r.tau_s)
                 )),
                 read.filter(|r| r.slope.is_finite())
                     .map_or("–".into(), |r| format!("{:+.2}", r.slope)),
+                unit = u1.pretty(),
             );
         }
     }
@@ -262,7 +254,7 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
     for a in analysis {
         if let Some(b) = &a.bandwidth {
             notes.push(format!(
-                "{}: sensor low-pass detected ({} form, corner {} Hz, order {}, {} dB/decade, ΔBIC {:.0}); \
+                "{}: sensor low-pass detected ({} form, corner {} Hz, order {}, {:.0} dB/decade, ΔBIC {:.0}); \
                  fits use the spectrum up to {} Hz and the Allan variance from τ = {} s",
                 a.channel,
                 match b.lowpass.form {
@@ -278,7 +270,11 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
             ));
         }
         for w in &a.combined.warnings {
-            notes.push(format!("**warning** {}: {}", a.channel, w.describe()));
+            notes.push(format!(
+                "**warning** {}: {}",
+                a.channel,
+                warning_line(w, a.sensor)
+            ));
         }
     }
     if !notes.is_empty() {
@@ -307,14 +303,14 @@ pub fn summary_markdown(ok: &[&FileResult], failed: &[(String, String)], elapsed
     let _ = writeln!(out, "# imunoise noise analysis\n");
     let _ = writeln!(
         out,
-        "imunoise {}; {} file(s) analysed, {} failed, in {:.2} s. Coefficients are fitted by \
+        "imunoise {}; {} analysed, {} failed, in {}. Coefficients are fitted by \
          weighted non-negative least squares to the overlapping Allan variance (AV) and, \
          separately, to the log-binned Welch spectrum (PSD); values in SI are in report.json and \
          coefficients.csv.",
         env!("CARGO_PKG_VERSION"),
-        ok.len(),
+        count_as(ok.len() as u64, "file", "files"),
         failed.len(),
-        elapsed_s
+        duration(elapsed_s)
     );
     for r in ok {
         file_section(&mut out, r);
@@ -328,26 +324,59 @@ pub fn summary_markdown(ok: &[&FileResult], failed: &[(String, String)], elapsed
     out
 }
 
-/// One line per effect found: what, its parameters, the evidence, the error before and after.
-pub fn effect_line(e: &Effect) -> String {
+/// The units the effects of one channel are in: the channel's SI unit, and the unit of every other
+/// channel of its recording (the aux channel a coupling names).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EffectUnits {
+    pub value: Option<Unit>,
+    pub others: Vec<(String, Option<Unit>)>,
+}
+
+impl EffectUnits {
+    /// The units of `channel` of `recording` (values in SI after ingest).
+    pub fn of(recording: &Recording, channel: &str) -> EffectUnits {
+        let unit = |name: &str| {
+            recording
+                .channels
+                .iter()
+                .find(|c| c.name == name)
+                .and_then(|c| c.si_unit())
+        };
+        EffectUnits {
+            value: unit(channel),
+            others: recording
+                .channels
+                .iter()
+                .map(|c| (c.name.clone(), c.si_unit()))
+                .collect(),
+        }
+    }
+
+    fn of_other(&self, name: &str) -> Option<Unit> {
+        self.others
+            .iter()
+            .find(|(n, _)| n == name)
+            .and_then(|(_, u)| *u)
+    }
+}
+
+/// One line per effect found: what, its parameters with their units, the evidence.
+pub fn effect_line(e: &Effect, units: &EffectUnits) -> String {
+    let v = Shown::value(units.value);
     match e {
         Effect::Sinusoid(s) => format!(
-            "line at {:.4} Hz [{:.4}, {:.4}], amplitude {} [{}, {}]",
+            "line at {:.4} Hz [{:.4}, {:.4}], amplitude {}",
             s.freq_hz,
             s.freq_lo,
             s.freq_hi,
-            sig4(s.amplitude),
-            sig4(s.amplitude_lo),
-            sig4(s.amplitude_hi)
+            v.interval(s.amplitude, s.amplitude_lo, s.amplitude_hi)
         ),
         Effect::Narrowband(nb) => format!(
-            "wandering line at {:.4} Hz, width {} Hz, rms {} [{}, {}] (power {}; a coherent sinusoid explains {:.0} %)",
+            "wandering line at {:.4} Hz, width {} Hz, rms {} (power {}; a coherent sinusoid explains {:.0} %)",
             nb.freq_hz,
             sig4(nb.width_hz),
-            sig4(nb.power.sqrt()),
-            sig4(nb.power_lo.sqrt()),
-            sig4(nb.power_hi.sqrt()),
-            sig4(nb.power),
+            v.interval(nb.power.sqrt(), nb.power_lo.sqrt(), nb.power_hi.sqrt()),
+            Shown::squared(units.value).one(nb.power),
             100.0 * nb.coherent_share
         ),
         Effect::Resonance {
@@ -359,59 +388,106 @@ pub fn effect_line(e: &Effect) -> String {
             q_hi,
             sigma,
         } => format!(
-            "resonance at {f0_hz:.3} Hz [{f0_lo:.3}, {f0_hi:.3}], Q {q:.1} [{q_lo:.1}, {q_hi:.1}], σ {} [{}, {}]",
-            sig4(sigma.value),
-            sig4(sigma.lo),
-            sig4(sigma.hi)
+            "resonance at {f0_hz:.3} Hz [{f0_lo:.3}, {f0_hi:.3}], Q {q:.1} [{q_lo:.1}, {q_hi:.1}], σ {}",
+            v.interval(sigma.value, sigma.lo, sigma.hi)
         ),
         Effect::GaussMarkov { tc_s, sigma } => format!(
-            "Gauss–Markov process, Tc {} s, σ {} [{}, {}]",
+            "Gauss–Markov process, Tc {} s, σ {}",
             sig4(*tc_s),
-            sig4(sigma.value),
-            sig4(sigma.lo),
-            sig4(sigma.hi)
+            v.interval(sigma.value, sigma.lo, sigma.hi)
         ),
         Effect::Coupling { aux, fit } => format!(
-            "coupling to {aux}: {} [{}, {}] per unit, {:.1} % of the variance",
-            sig4(fit.coefficient),
-            sig4(fit.lo),
-            sig4(fit.hi),
+            "coupling to {aux}: {}, {:.1} % of the variance",
+            Shown::ratio(units.value, units.of_other(aux), aux).interval(
+                fit.coefficient,
+                fit.lo,
+                fit.hi
+            ),
             100.0 * fit.explained_share
         ),
         Effect::Drift(d) => {
-            let what = match (d.shape, d.tc_interval_s) {
-                (DriftShape::Exponential { tc_s }, Some((lo, hi))) => format!(
-                    "settling drift exp(−t/τ), τ {} s [{}, {}], amplitude",
-                    sig4(tc_s),
-                    sig4(lo),
-                    sig4(hi)
+            let (what, shown) = match (d.shape, d.tc_interval_s) {
+                (DriftShape::Exponential { tc_s }, Some((lo, hi))) => (
+                    format!(
+                        "settling drift exp(−t/τ), τ {} s [{}, {}], amplitude",
+                        sig4(tc_s),
+                        sig4(lo),
+                        sig4(hi)
+                    ),
+                    v.clone(),
                 ),
-                (DriftShape::Exponential { tc_s }, None) => {
-                    format!("settling drift exp(−t/τ), τ {} s, amplitude", sig4(tc_s))
-                }
-                (DriftShape::Quadratic, _) => "quadratic drift (t − T/2)², per s²".to_string(),
+                (DriftShape::Exponential { tc_s }, None) => (
+                    format!("settling drift exp(−t/τ), τ {} s, amplitude", sig4(tc_s)),
+                    v.clone(),
+                ),
+                (DriftShape::Quadratic, _) => (
+                    "quadratic drift c·(t − T/2)², c".to_string(),
+                    Shown::per_s2(units.value),
+                ),
             };
             format!(
-                "{what} {} [{}, {}], {:.1} % of the variance",
-                sig4(d.amplitude),
-                sig4(d.lo),
-                sig4(d.hi),
+                "{what} {}, {:.1} % of the variance",
+                shown.interval(d.amplitude, d.lo, d.hi),
                 100.0 * d.explained_share
             )
         }
         Effect::Spikes(s) => format!(
-            "{} spikes (first at {:.2} s), {:.2} % of the variance",
-            s.indices.len(),
+            "{} (first at {:.2} s), {:.2} % of the variance",
+            count(s.indices.len() as u64, "spike"),
             s.times_s.first().copied().unwrap_or(f64::NAN),
             100.0 * s.variance_share
         ),
         Effect::Step(s) => format!(
-            "bias step at {:.1} s of {} [{}, {}]",
+            "bias step at {:.1} s of {}",
             s.time_s,
-            sig4(s.size),
-            sig4(s.lo),
-            sig4(s.hi)
+            v.interval(s.size, s.lo, s.hi)
         ),
+    }
+}
+
+/// A fit warning for a person: as [`FitWarning::describe`], with coefficients in the datasheet
+/// unit of their term.
+pub fn warning_line(w: &FitWarning, sensor: Sensor) -> String {
+    match w {
+        FitWarning::ContradictsReadOff {
+            term,
+            fitted,
+            read_off,
+            tau_s,
+        } => {
+            let [_, u, _] = units_of(sensor, *term);
+            format!(
+                "fitted {} = {} {unit} lies above what the Allan deviation allows at τ = {} s \
+                 (read-off {} {unit})",
+                term.symbol(),
+                sig4(u.from_si(*fitted)),
+                sig4(*tau_s),
+                sig4(u.from_si(*read_off)),
+                unit = u.pretty()
+            )
+        }
+        FitWarning::LackOfFit {
+            domain,
+            chi2_per_dof,
+            p_value,
+            inflation,
+            from,
+            to,
+        } => {
+            let (what, range) = match domain {
+                crate::model::Domain::Allan => {
+                    ("Allan", format!("τ = {}–{} s", sig(*from, 4), sig(*to, 4)))
+                }
+                crate::model::Domain::Spectrum => {
+                    ("spectrum", format!("{}–{} Hz", sig(*from, 4), sig(*to, 4)))
+                }
+            };
+            format!(
+                "lack of fit in the {what} domain: χ²/dof = {chi2_per_dof:.3} (p = {p_value:.1e}), \
+                 worst at {range}; intervals widened ×{inflation:.2}"
+            )
+        }
+        other => other.describe(),
     }
 }
 
@@ -424,7 +500,7 @@ fn errors(f: &ErrorFigures) -> String {
     format!("AV {}; PSD {}", d(&f.allan), d(&f.spectrum))
 }
 
-fn loop_section(out: &mut String, analysis: &[ChannelAnalysis]) {
+fn loop_section(out: &mut String, recording: &Recording, analysis: &[ChannelAnalysis]) {
     let _ = writeln!(out, "\n### Residual loop: effects the IEEE model lacks\n");
     for a in analysis {
         let Some(l) = &a.residual_loop else { continue };
@@ -438,17 +514,120 @@ fn loop_section(out: &mut String, analysis: &[ChannelAnalysis]) {
             continue;
         }
         let _ = writeln!(out, "- **{}**:", a.channel);
+        let units = EffectUnits::of(recording, &a.channel);
         for (i, s) in l.steps.iter().enumerate() {
             let _ = writeln!(
                 out,
                 "  {}. {} — ΔBIC {:.1}. Evidence: {}. Before: {}. After: {}.",
                 i + 1,
-                effect_line(&s.effect),
+                effect_line(&s.effect, &units),
                 s.delta_bic,
                 s.evidence,
                 errors(&s.before),
                 errors(&s.after)
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::effects::time::{Coupling, Spikes};
+    use crate::model::Domain;
+
+    fn units(value: Unit) -> EffectUnits {
+        EffectUnits {
+            value: Some(value),
+            others: vec![("temperature".into(), Some(Unit::DegC))],
+        }
+    }
+
+    #[test]
+    fn a_coupling_carries_its_unit_in_both_systems() {
+        let fit = Coupling {
+            coefficient: 9.80665e-4,
+            lo: 8.0e-4,
+            hi: 1.1e-3,
+            z: 5.0,
+            p_value: 1e-6,
+            delta_bic: -20.0,
+            explained_share: 0.2,
+            scale_s: 1.0,
+            n_eff: 100,
+        };
+        let e = Effect::Coupling {
+            aux: "temperature".into(),
+            fit,
+        };
+        let accel = effect_line(&e, &units(Unit::MPerS2));
+        assert!(
+            accel.starts_with("coupling to temperature: 9.807e-4 [8.000e-4, 0.001100] (m/s²)/K (")
+                && accel.contains("0.1000 [")
+                && accel.contains("] mg/°C), 20.0 % of the variance"),
+            "{accel}"
+        );
+        assert!(!accel.contains("per unit"), "{accel}");
+        let gyro = effect_line(&e, &units(Unit::RadPerS));
+        assert!(
+            gyro.contains("(rad/s)/K (") && gyro.contains("(°/h)/°C)"),
+            "{gyro}"
+        );
+        // An aux channel without a unit: per unit of that channel, named.
+        let plain = effect_line(
+            &e,
+            &EffectUnits {
+                value: Some(Unit::RadPerS),
+                others: vec![("temperature".into(), None)],
+            },
+        );
+        assert!(plain.contains("rad/s per unit of temperature"), "{plain}");
+    }
+
+    #[test]
+    fn counts_in_effect_lines_agree_with_their_noun() {
+        let spikes = |n: usize| {
+            Effect::Spikes(Spikes {
+                indices: (0..n).collect(),
+                times_s: (0..n).map(|i| i as f64).collect(),
+                excess: vec![1.0; n],
+                threshold_sigma: 5.0,
+                sigma: 1.0,
+                variance_share: 0.01,
+                delta_bic: -10.0,
+            })
+        };
+        let u = units(Unit::RadPerS);
+        assert!(effect_line(&spikes(1), &u).starts_with("1 spike (first"));
+        assert!(effect_line(&spikes(3), &u).starts_with("3 spikes (first"));
+    }
+
+    #[test]
+    fn warnings_name_the_unit_of_their_numbers() {
+        let w = FitWarning::ContradictsReadOff {
+            term: Term::RandomWalk,
+            // 0.15 °/√h and 0.12 °/√h.
+            fitted: 0.15 * std::f64::consts::PI / 180.0 / 60.0,
+            read_off: 0.12 * std::f64::consts::PI / 180.0 / 60.0,
+            tau_s: 1.0,
+        };
+        assert_eq!(
+            warning_line(&w, Sensor::Gyro),
+            "fitted N = 0.1500 °/√h lies above what the Allan deviation allows at τ = 1.000 s \
+             (read-off 0.1200 °/√h)"
+        );
+        let w = FitWarning::LackOfFit {
+            domain: Domain::Allan,
+            chi2_per_dof: 3.2,
+            p_value: 1e-5,
+            inflation: 1.79,
+            from: 0.01,
+            to: 163.84,
+        };
+        assert!(
+            warning_line(&w, Sensor::Gyro).contains("worst at τ = 0.01–163.8 s;"),
+            "{}",
+            warning_line(&w, Sensor::Gyro)
+        );
     }
 }

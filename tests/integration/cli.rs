@@ -316,3 +316,267 @@ fn backend_gpu_agrees_with_cpu_or_fails_cleanly() {
         }
     }
 }
+
+/// Output a person reads: numbers to their precision (the rate of a CSV at 100 Hz printed as
+/// `100.0000000000007 Hz`, `1 channels`), every coefficient, amplitude and legend with its unit
+/// (the temperature coupling was "per unit", legends bare SI numbers).
+#[test]
+fn per_file_lines_print_numbers_to_their_precision() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("one.csv");
+    let simulated = imunoise(
+        &[
+            "simulate",
+            "-o",
+            csv.to_str().unwrap(),
+            "--rate",
+            "100",
+            "--duration",
+            "10",
+            "--axes",
+            "1",
+            "--noise",
+            "N=0.15deg/sqrt(h)",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    assert_eq!(simulated.status.code(), Some(0), "{simulated:?}");
+    let out = imunoise(
+        &["avar", "one.csv", "-o", "out", "--backend", "cpu"],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    // The rate comes from the time column (1/mean interval, 100.0000000000007 in report.json).
+    assert!(
+        stderr.contains("ok    one.csv: 1 channel, 1000 samples at 100 Hz, 10 s\n"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("1 of 1 file ok; results in out"),
+        "{stderr}"
+    );
+    let doc: Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("out/report.json")).unwrap())
+            .unwrap();
+    let rate = doc["files"][0]["recording"]["rate_hz"].as_f64().unwrap();
+    assert!((rate - 100.0).abs() < 1e-9, "{rate}");
+}
+
+#[test]
+fn analyze_labels_every_coefficient_amplitude_and_legend_with_its_unit() {
+    let dir = tempfile::tempdir().unwrap();
+    let sample = repo_root().join("data/sample_imu.arrow");
+    let out = imunoise(
+        &[
+            "analyze",
+            sample.to_str().unwrap(),
+            "--channels",
+            "gyro_z,accel_x,temperature",
+            "-o",
+            "out",
+            "--backend",
+            "cpu",
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    let md = std::fs::read_to_string(dir.path().join("out/summary.md")).unwrap();
+    for text in [&*stderr, &md] {
+        assert!(!text.contains("per unit"), "{text}");
+        // The coupling of the gyro to the temperature, in both unit systems.
+        let coupling = text
+            .lines()
+            .find(|l| l.contains("coupling to temperature"))
+            .unwrap_or_else(|| panic!("no coupling in {text}"));
+        assert!(
+            coupling.contains(" (rad/s)/K (") && coupling.contains(" (°/h)/°C)"),
+            "{coupling}"
+        );
+        // The line's amplitude on the accelerometer.
+        let line = text
+            .lines()
+            .find(|l| l.contains("line at 12.5"))
+            .unwrap_or_else(|| panic!("no line in {text}"));
+        assert!(
+            line.contains("] m/s² (") && line.contains("] mg)"),
+            "{line}"
+        );
+    }
+    assert!(stderr.contains("ok    "), "{stderr}");
+    assert!(
+        stderr.contains(": 3 channels, 90000 samples at 100 Hz, 900 s (15.0 min)"),
+        "{stderr}"
+    );
+    assert!(md.contains("90000 samples per channel at 100 Hz, 900 s (15.0 min), 3 channels"));
+    assert!(md.contains("1 file analysed"), "{md}");
+    // Combined coefficients carry their unit in every column that has a number.
+    let row = md
+        .lines()
+        .find(|l| l.starts_with("| gyro_z | N |"))
+        .unwrap_or_else(|| panic!("{md}"));
+    assert_eq!(row.matches("°/√h").count(), 3, "{row}");
+    // Plot legends: each fitted term with its datasheet unit, the removed line with its amplitude.
+    let legends = |name: &str| -> Vec<String> {
+        let svg =
+            std::fs::read_to_string(dir.path().join("out/sample_imu/plots").join(name)).unwrap();
+        svg.split("<text")
+            .skip(1)
+            .filter_map(|t| t.split_once('>').map(|(_, r)| r))
+            .filter_map(|r| r.split_once("</text>").map(|(t, _)| t.to_string()))
+            .collect()
+    };
+    for name in ["gyro_z_avar.svg", "gyro_z_psd.svg", "accel_x_psd.svg"] {
+        let texts = legends(name);
+        let terms: Vec<&String> = texts
+            .iter()
+            .filter(|t| t.len() > 4 && t.as_bytes()[1..4] == *b" = " && "QNBKR".contains(&t[..1]))
+            .collect();
+        assert!(!terms.is_empty(), "{name}: {texts:?}");
+        for t in terms {
+            // "N = 0.1504 °/√h": a symbol, a number, a unit.
+            let parts: Vec<&str> = t.splitn(4, ' ').collect();
+            assert!(
+                parts.len() == 4 && parts[2].parse::<f64>().is_ok() && !parts[3].is_empty(),
+                "{name}: {t}"
+            );
+        }
+    }
+    assert!(
+        legends("accel_x_psd.svg")
+            .iter()
+            .any(|t| t.starts_with("line 12.500 Hz, ") && t.ends_with(" mg (removed)")),
+        "{:?}",
+        legends("accel_x_psd.svg")
+    );
+}
+
+/// `imunoise info FILE` printed nothing on stdout and wrote an `imunoise-out` folder.
+#[test]
+fn info_prints_a_table_and_writes_files_only_when_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let sample = repo_root().join("data/sample_imu.arrow");
+    let sample = sample.to_str().unwrap();
+    let out = imunoise(&["info", sample], dir.path());
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = String::from_utf8_lossy(&out.stdout);
+    for needle in [
+        "format    Arrow IPC file",
+        "rows      90000 rows",
+        "duration  900 s (15.0 min)",
+        "rate      100 Hz (from schema metadata sample_rate_hz",
+        "gaps      none",
+        "channel",
+        "stored",
+        "non-finite",
+        "saturated",
+    ] {
+        assert!(table.contains(needle), "{needle:?} not in\n{table}");
+    }
+    let row = |name: &str| -> Vec<String> {
+        table
+            .lines()
+            .find(|l| l.trim_start().starts_with(&format!("{name} ")))
+            .unwrap_or_else(|| panic!("no {name} in\n{table}"))
+            .split("  ")
+            .map(str::trim)
+            .filter(|c| !c.is_empty())
+            .map(String::from)
+            .collect()
+    };
+    let gyro = row("gyro_x");
+    assert_eq!(
+        gyro[..5],
+        ["gyro_x", "°/s", "rad/s", "gyro", "Float32"],
+        "{gyro:?}"
+    );
+    let accel = row("accel_x");
+    assert_eq!(accel[4], "Int32 × 1e-5", "{accel:?}");
+    // min, max, mean, std, step, non-finite, saturated.
+    assert_eq!(accel.len(), 12, "{accel:?}");
+    assert_eq!(accel[9], "1.000e-5", "{accel:?}");
+    assert_eq!(accel[10..], ["0", "no"], "{accel:?}");
+    assert!(
+        !dir.path().join("imunoise-out").exists(),
+        "info without -o wrote files"
+    );
+    assert!(
+        !String::from_utf8_lossy(&out.stderr).contains("results in"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    // With -o the document is written too, and the table still printed.
+    let out = imunoise(&["info", sample, "-o", "given"], dir.path());
+    assert_eq!(out.status.code(), Some(0));
+    assert!(dir.path().join("given/report.json").exists());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("Arrow IPC file"));
+
+    // The other commands keep their default folder.
+    let out = imunoise(
+        &[
+            "psd",
+            sample,
+            "--channels",
+            "gyro_x",
+            "--nperseg",
+            "256",
+            "--backend",
+            "cpu",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(0));
+    assert!(dir.path().join("imunoise-out/psd.csv").exists());
+}
+
+/// Mesa and the Vulkan loader printed "XDG_RUNTIME_DIR is invalid" twice on every default run,
+/// straight to fd 2, even with --quiet; they now show only with -v.
+#[test]
+fn the_gpu_probe_is_quiet_unless_verbose() {
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "analyze",
+            "data/sample_imu.arrow",
+            "--channels",
+            "gyro_x",
+            "--no-loop",
+            "--json",
+            "--backend",
+            "auto",
+        ];
+        args.extend_from_slice(extra);
+        std::process::Command::new(env!("CARGO_BIN_EXE_imunoise"))
+            .args(&args)
+            .current_dir(repo_root())
+            .env_remove("XDG_RUNTIME_DIR")
+            .stdin(std::process::Stdio::null())
+            .output()
+            .unwrap()
+    };
+    for extra in [&[][..], &["--quiet"][..]] {
+        let out = run(extra);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{extra:?}: {stderr}");
+        assert!(!stderr.contains("XDG_RUNTIME_DIR"), "{extra:?}: {stderr}");
+        if extra.is_empty() {
+            // Our own messages still come through once the probe is over.
+            assert!(stderr.contains("imunoise: backend "), "{stderr}");
+        }
+    }
+    let verbose = run(&["-v"]);
+    let stderr = String::from_utf8_lossy(&verbose.stderr);
+    assert_eq!(verbose.status.code(), Some(0), "{stderr}");
+    if !stderr.contains("XDG_RUNTIME_DIR") {
+        eprintln!(
+            "note: the graphics stack prints nothing here even with -v; the test shows little"
+        );
+    }
+}
