@@ -9,6 +9,7 @@ pub mod analysis;
 pub mod avar;
 pub mod effects;
 pub mod estimate;
+pub mod fleet;
 pub mod gpu;
 pub mod io;
 pub mod model;

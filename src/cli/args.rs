@@ -44,6 +44,11 @@ pub enum Command {
     /// Simulate a static IMU recording from a noise-model specification (JSON file and/or flags)
     /// and write it as an Arrow IPC file with units, kinds and the sample rate in its metadata.
     Simulate(SimulateArgs),
+    /// Screen a fleet: analyse every recording of folders (or lists) as `analyze` does, write one
+    /// Parquet result per file as soon as it is done (a rerun skips what is up to date), then judge
+    /// every sensor against a specification (--spec) and against its siblings (robust outliers,
+    /// unusual effects): fleet.parquet, summary.md, fleet.html. --shard K/N splits a job array.
+    Screen(super::screen::ScreenArgs),
 }
 
 #[derive(Debug, Args)]
@@ -325,10 +330,11 @@ pub struct BackendArgs {
 #[derive(Debug, Args)]
 #[command(next_help_heading = "Output")]
 pub struct OutputArgs {
-    /// Output folder (created if needed). Files are written under temporary names and renamed, so a
-    /// run that fails leaves earlier results intact.
-    #[arg(short, long, default_value = "imunoise-out", value_name = "DIR")]
-    pub out: PathBuf,
+    /// Output folder (created if needed; default imunoise-out for psd, avar and analyze, while info
+    /// prints a table and writes files only when this is given). Files are written under temporary
+    /// names and renamed, so a run that fails leaves earlier results intact.
+    #[arg(short, long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
 
     /// Table formats written into the output folder, comma-separated: arrow, csv, json.
     #[arg(
@@ -346,4 +352,9 @@ pub struct OutputArgs {
     /// No progress bar and no per-file lines on stderr (errors are still printed).
     #[arg(short, long)]
     pub quiet: bool,
+
+    /// Say more on stderr: why no GPU was used, and what the graphics drivers print while the GPU
+    /// is probed (hidden otherwise).
+    #[arg(short, long, conflicts_with = "quiet")]
+    pub verbose: bool,
 }

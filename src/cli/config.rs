@@ -33,13 +33,20 @@ fn usage(e: impl std::fmt::Display) -> UsageError {
     UsageError(e.to_string())
 }
 
+/// The output folder when `-o/--out` is not given (`psd`, `avar`, `analyze`).
+pub const DEFAULT_OUT: &str = "imunoise-out";
+
 /// Where and how results are written.
 #[derive(Debug, Clone)]
 pub struct OutputConfig {
     pub dir: PathBuf,
+    /// Whether `-o/--out` was given: `info` writes files only then.
+    pub dir_given: bool,
     pub formats: Formats,
     pub json_stdout: bool,
     pub quiet: bool,
+    /// `-v`: the graphics drivers' own messages and the reason no GPU was used.
+    pub verbose: bool,
     /// `analyze`: the topic written into the Kalibr imu.yaml.
     pub kalibr_topic: Option<String>,
 }
@@ -102,6 +109,7 @@ pub fn job(cli: Cli) -> Result<Job, UsageError> {
             ("analyze", a.input, w, v, f, a.output, a.backend)
         }
         Command::Simulate(_) => return Err(usage("simulate is not a file-processing command")),
+        Command::Screen(_) => return Err(usage("screen is run by cli::screen")),
     };
     let mut options = serde_json::Map::new();
     let inputs = inputs(&input, &mut options)?;
@@ -376,10 +384,12 @@ fn output_config(a: &OutputArgs) -> Result<OutputConfig, UsageError> {
         }
     }
     Ok(OutputConfig {
-        dir: a.out.clone(),
+        dir: a.out.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_OUT)),
+        dir_given: a.out.is_some(),
         formats,
         json_stdout: a.json,
         quiet: a.quiet,
+        verbose: a.verbose,
         kalibr_topic: None,
     })
 }
@@ -428,7 +438,9 @@ fn fit_options(
         }
     }
     if let Some(w) = welch {
-        if w.bins_per_decade.is_some_and(|k| k > MAX_FIT_BINS_PER_DECADE) {
+        if w.bins_per_decade
+            .is_some_and(|k| k > MAX_FIT_BINS_PER_DECADE)
+        {
             return Err(usage(format!(
                 "--bins-per-decade {}: analyze fits the binned spectrum, which needs between 1 and \
                  {MAX_FIT_BINS_PER_DECADE} bins per decade (finer bins only add correlated points \

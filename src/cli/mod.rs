@@ -2,8 +2,10 @@
 //! computes; it only parses, calls the library and maps outcomes to exit codes.
 
 mod args;
+mod backend;
 mod config;
 mod run;
+mod screen;
 mod simulate;
 
 use clap::Parser;
@@ -23,6 +25,9 @@ pub fn main() -> i32 {
             return code;
         }
     };
+    if let args::Command::Screen(a) = cli.command {
+        return screen::main(a);
+    }
     if let args::Command::Simulate(a) = &cli.command {
         return match simulate::job(a) {
             Ok(job) => simulate::run(&job),

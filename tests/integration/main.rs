@@ -15,4 +15,5 @@ mod real_inputs;
 mod residual_loop;
 mod residual_loop_catalogue;
 mod schema;
+mod screen;
 mod streaming;

@@ -1,0 +1,427 @@
+//! `imunoise screen`: flags → validated run → [`imunoise::fleet`] → exit code. The analysis
+//! options are the `analyze` flags, validated by the same code ([`super::config::job`]); this file
+//! only adds the fleet flags, the locks, the progress bar and the stderr lines.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use clap::{Args, Parser};
+use imunoise::fleet::{
+    self, collect_inputs, fleet_step, BatchConfig, FileOutcome, Input, Layout, Lock, Observer,
+    PlotPolicy, Shard, Spec, Status,
+};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+
+use super::args::{
+    AnalyzeArgs, AvarFlags, BackendArgs, Cli, Command, FitFlags, InputArgs, OutputArgs, WelchArgs,
+};
+use super::backend::{gpu_failure, Chatter};
+use super::config::{self, BackendChoice, UsageError};
+use super::run::{EXIT_FATAL, EXIT_OK, EXIT_SOME_FAILED};
+
+/// How long the fleet step waits for another shard's fleet step to finish.
+const FLEET_LOCK_PATIENCE: Duration = Duration::from_secs(600);
+
+/// `imunoise screen` flags: the inputs, the fleet flags, and the `analyze` options.
+#[derive(Debug, Args)]
+#[command(mut_arg("files", |a| a
+    .required(false)
+    .value_name("DIR|FILE")
+    .help("Folders (searched recursively for .arrow/.feather/.ipc, .arrows, .parquet/.pq, .csv \
+           and .mcap files, in sorted order) or recordings. One bad file does not stop the \
+           others.")))]
+pub struct ScreenArgs {
+    #[command(flatten)]
+    pub input: InputArgs,
+    #[command(flatten)]
+    pub fleet: FleetFlags,
+    #[command(flatten)]
+    pub welch: WelchArgs,
+    #[command(flatten)]
+    pub avar: AvarFlags,
+    #[command(flatten)]
+    pub fit: FitFlags,
+    #[command(flatten)]
+    pub backend: BackendArgs,
+}
+
+/// What to screen against, where results go, how the batch runs.
+#[derive(Debug, Args)]
+#[command(next_help_heading = "Fleet")]
+pub struct FleetFlags {
+    /// More inputs, one path per line (folders or files; `-` reads standard input; blank lines
+    /// and lines starting with # are skipped).
+    #[arg(long, value_name = "LIST")]
+    pub files_from: Option<PathBuf>,
+
+    /// Take only shard K of N (0 <= K < N), chosen by a stable hash of each input's path below
+    /// its folder argument: the same on every machine, so a job array (Slurm
+    /// --array=0-15 with --shard $SLURM_ARRAY_TASK_ID/16) splits a fleet into one output folder.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
+
+    /// Specification (TOML): upper limits per sensor kind and term with units, e.g.
+    /// [gyro] N = "0.3 deg/sqrt(h)", B = "5 deg/h"; [accel] N = "60 ug/sqrt(Hz)"; and
+    /// [fleet] outlier_z = 3.5. Without it, only the fleet comparison.
+    #[arg(long, value_name = "SPEC")]
+    pub spec: Option<PathBuf>,
+
+    /// Output folder: results/shard=K/part-*.parquet (one per input, written as each is done),
+    /// fleet.parquet, summary.md, fleet.html. A rerun skips inputs whose result is up to date.
+    #[arg(short, long, default_value = "imunoise-screen", value_name = "DIR")]
+    pub out: PathBuf,
+
+    /// Per-file plots of `analyze` in DIR/plots/<key>/: none, failures (files with a channel
+    /// that fails a limit or has a quality verdict), or all.
+    #[arg(long, default_value = "none", value_name = "WHICH")]
+    pub plots: String,
+
+    /// Files analysed at the same time (each file's analysis is itself parallel over channels);
+    /// memory grows with this number, not with the number of files.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub threads: usize,
+
+    /// Recompute inputs whose earlier result is an error (by default an unchanged file with
+    /// unchanged options is not retried).
+    #[arg(long)]
+    pub retry_errors: bool,
+
+    /// No progress bar and no per-file lines on stderr (errors are still printed).
+    #[arg(short, long)]
+    pub quiet: bool,
+
+    /// Show what the graphics drivers say while the GPU is probed, and why a GPU was not used.
+    #[arg(short, long)]
+    pub verbose: bool,
+}
+
+/// Defaults of the `analyze` output flags, whatever fields they gain: `screen` writes its own
+/// outputs and takes none of them, but [`config::job`] wants them.
+#[derive(Debug, Parser)]
+struct OutputDefaults {
+    #[command(flatten)]
+    output: OutputArgs,
+}
+
+/// A validated screen.
+struct ScreenJob {
+    analysis: config::Job,
+    args: Vec<PathBuf>,
+    shard: Shard,
+    spec: Spec,
+    layout: Layout,
+    plots: PlotPolicy,
+    threads: usize,
+    retry_errors: bool,
+    quiet: bool,
+    verbose: bool,
+    options_hash: String,
+}
+
+fn usage(e: impl std::fmt::Display) -> UsageError {
+    UsageError(e.to_string())
+}
+
+fn job(a: ScreenArgs) -> Result<ScreenJob, UsageError> {
+    let ScreenArgs {
+        input,
+        fleet: f,
+        welch,
+        avar,
+        fit,
+        backend,
+    } = a;
+    let shard = match &f.shard {
+        Some(s) => s
+            .parse::<Shard>()
+            .map_err(|e| usage(format!("--shard {e}")))?,
+        None => Shard::ALL,
+    };
+    let plots: PlotPolicy = f.plots.parse().map_err(|e| usage(format!("--plots {e}")))?;
+    if f.threads == 0 {
+        return Err(usage("--threads: must be at least 1"));
+    }
+    let spec = match &f.spec {
+        Some(p) => Spec::read(p).map_err(|e| usage(format!("--spec {e}")))?,
+        None => Spec::default(),
+    };
+    let mut args = input.files.clone();
+    if let Some(list) = &f.files_from {
+        args.extend(
+            fleet::inputs::read_list(list).map_err(|e| usage(format!("--files-from {e}")))?,
+        );
+    }
+    if args.is_empty() {
+        return Err(usage(
+            "screen: give folders or files to screen, or --files-from LIST",
+        ));
+    }
+    let output = OutputDefaults::try_parse_from(["screen"])
+        .map_err(|e| usage(e.to_string()))?
+        .output;
+    let analysis = config::job(Cli {
+        command: Command::Analyze(AnalyzeArgs {
+            input,
+            welch,
+            avar,
+            fit,
+            output,
+            backend,
+        }),
+    })?;
+    // Everything that changes a file's result: the options as recorded, and the loop switch
+    // (which the recorded options do not name).
+    let options_hash = fleet::hash::options_hash(&json!({
+        "analysis": analysis.options,
+        "residual_loop": analysis.work.residual_loop,
+    }));
+    Ok(ScreenJob {
+        analysis,
+        args,
+        shard,
+        spec,
+        layout: Layout::new(f.out),
+        plots,
+        threads: f.threads,
+        retry_errors: f.retry_errors,
+        quiet: f.quiet,
+        verbose: f.verbose,
+        options_hash,
+    })
+}
+
+/// Progress over the whole batch on a terminal, and one stderr line per file.
+struct Report {
+    bar: Option<ProgressBar>,
+    quiet: bool,
+}
+
+impl Report {
+    fn new(total: usize, quiet: bool) -> Self {
+        let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
+            let b = ProgressBar::new(total as u64);
+            b.set_style(
+                ProgressStyle::with_template(
+                    "{bar:30} {pos}/{len} files, {elapsed} elapsed, ETA {eta} {wide_msg}",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            b.enable_steady_tick(Duration::from_millis(500));
+            b
+        });
+        Report { bar, quiet }
+    }
+
+    fn line(&self, text: &str) {
+        match &self.bar {
+            Some(b) => b.suspend(|| eprintln!("{text}")),
+            None => eprintln!("{text}"),
+        }
+    }
+}
+
+impl Observer for Report {
+    fn started(&self, input: &Input) {
+        if let Some(b) = &self.bar {
+            b.set_message(input.rel.clone());
+        }
+    }
+
+    fn finished(&self, input: &Input, outcome: &FileOutcome) {
+        let path = input.path.display();
+        if let Some(b) = &self.bar {
+            b.inc(1);
+        }
+        match outcome {
+            FileOutcome::Skipped { error } | FileOutcome::Adopted { error } => {
+                let what = if matches!(outcome, FileOutcome::Skipped { .. }) {
+                    "skipped"
+                } else {
+                    "moved"
+                };
+                match error {
+                    Some(e) => self.line(&format!(
+                        "error {path}: {e} ({what}: unchanged since that run; --retry-errors retries)"
+                    )),
+                    None if !self.quiet => self.line(&format!(
+                        "{what} {path}: result up to date"
+                    )),
+                    None => {}
+                }
+            }
+            FileOutcome::Computed {
+                seconds,
+                records,
+                notes,
+            } => {
+                if let Some(e) = outcome.error() {
+                    if e.contains(&path.to_string()) {
+                        self.line(&format!("error {e}"));
+                    } else {
+                        self.line(&format!("error {path}: {e}"));
+                    }
+                    return;
+                }
+                if self.quiet {
+                    return;
+                }
+                self.line(&format!(
+                    "done  {path} ({seconds:.1} s): {} inertial channels",
+                    records.len()
+                ));
+                for r in records.iter().filter(|r| r.status == Status::Ok) {
+                    let channel = r.channel.as_deref().unwrap_or("");
+                    if !r.effects_detail.is_empty() {
+                        self.line(&format!(
+                            "found {path} {channel}: {}",
+                            r.effects_detail.join("; ")
+                        ));
+                    }
+                    for d in &r.quality_detail {
+                        self.line(&format!("quality {path} {channel}: {d}"));
+                    }
+                }
+                for n in notes {
+                    self.line(&format!("note  {path}: {n}"));
+                }
+            }
+        }
+    }
+}
+
+/// Runs `imunoise screen`; returns the exit code.
+pub fn main(a: ScreenArgs) -> i32 {
+    let job = match job(a) {
+        Ok(j) => j,
+        Err(e) => {
+            eprintln!("imunoise: {e}");
+            return EXIT_FATAL;
+        }
+    };
+    match run(&job) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("imunoise: {e}");
+            EXIT_FATAL
+        }
+    }
+}
+
+fn run(job: &ScreenJob) -> Result<i32, String> {
+    let layout = &job.layout;
+    // (An output folder that does not exist yet cannot be inside an input folder.)
+    let inputs = collect_inputs(&job.args, Some(&layout.dir)).map_err(|e| e.to_string())?;
+    if inputs.is_empty() {
+        return Err(format!(
+            "no recordings found in {} (looked for .arrow, .feather, .ipc, .arrows, .parquet, \
+             .pq, .csv, .mcap)",
+            job.args
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    std::fs::create_dir_all(&layout.dir)
+        .map_err(|e| format!("cannot create {}: {e}", layout.dir.display()))?;
+    let lock = Lock::acquire(&layout.shard_lock(job.shard.index)).map_err(|e| e.to_string())?;
+    if let Some((pid, host)) = &lock.took_over {
+        eprintln!(
+            "imunoise: note: took over the stale lock {} of pid {pid} on {host} (no such process)",
+            lock.path().display()
+        );
+    }
+    let quiet = job.quiet;
+    let chatter = Chatter {
+        verbose: job.verbose,
+        quiet,
+    };
+    let backend = super::backend::choose(job.analysis.backend, chatter)
+        .map_err(|e| gpu_failure(&e, job.verbose))?;
+    if !quiet && job.analysis.backend != BackendChoice::Cpu {
+        eprintln!("imunoise: backend {}", backend.describe());
+    }
+    let mine = inputs.iter().filter(|i| i.in_shard(job.shard)).count();
+    if !quiet {
+        eprintln!(
+            "imunoise: screening {mine} of {} recordings (shard {}) into {}",
+            inputs.len(),
+            job.shard,
+            layout.dir.display()
+        );
+    }
+    let report = Report::new(mine, quiet);
+    let cfg = BatchConfig {
+        layout,
+        shard: job.shard,
+        inputs: &job.analysis.inputs,
+        work: &job.analysis.work,
+        options: &job.options_hash,
+        threads: job.threads,
+        retry_errors: job.retry_errors,
+        plots: job.plots,
+        spec: &job.spec,
+    };
+    let batch = fleet::run_batch(&cfg, &inputs, backend.as_ref(), &report);
+    if let Some(b) = &report.bar {
+        b.finish_and_clear();
+    }
+    let batch = batch.map_err(|e| e.to_string())?;
+    drop(lock);
+
+    // The fleet step reads every shard's results; one at a time, so that the last shard to
+    // finish writes the table with everything.
+    let fleet_lock =
+        Lock::wait(&layout.fleet_lock(), FLEET_LOCK_PATIENCE).map_err(|e| e.to_string())?;
+    let title = format!(
+        "imunoise {} screen: {} recordings in {} shard{}; options {}.",
+        env!("CARGO_PKG_VERSION"),
+        inputs.len(),
+        job.shard.count,
+        if job.shard.count == 1 { "" } else { "s" },
+        job.options_hash
+    );
+    let fleet = fleet_step(
+        layout,
+        job.shard.count,
+        &job.options_hash,
+        &job.spec,
+        &title,
+    )
+    .map_err(|e| e.to_string())?;
+    drop(fleet_lock);
+    if !quiet {
+        let rows = &fleet.fleet.rows;
+        let flagged = rows.iter().filter(|r| r.flagged).count();
+        eprintln!(
+            "shard {}: {} computed, {} skipped, {} moved, {} with errors{}",
+            job.shard,
+            batch.computed,
+            batch.skipped,
+            batch.adopted,
+            batch.failed,
+            if batch.pruned > 0 {
+                format!("; {} results of former inputs removed", batch.pruned)
+            } else {
+                String::new()
+            }
+        );
+        eprintln!(
+            "fleet: {} files, {} channels, {flagged} flagged, {} pending; {} and {}",
+            fleet.files,
+            rows.iter()
+                .filter(|r| r.record.status == Status::Ok)
+                .count(),
+            fleet.pending.len(),
+            layout.summary().display(),
+            layout.html().display()
+        );
+    }
+    Ok(if batch.failed > 0 {
+        EXIT_SOME_FAILED
+    } else {
+        EXIT_OK
+    })
+}

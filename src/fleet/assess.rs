@@ -1,0 +1,348 @@
+//! The fleet step: every channel against the specification and against its siblings.
+//!
+//! **Siblings** are the channels of the same sensor kind (gyro or accelerometer) in the run's
+//! results with `status = ok`, all axes and files pooled: a fleet of identical parts should have
+//! alike axes too, and pooling gives the test enough members in a small fleet.
+//!
+//! - **Spec verdicts** ([`super::verdict`]) per channel and limit.
+//! - **Outliers** per (sensor kind, term): the robust z ([`super::robust`]) of ln(value) among the
+//!   siblings with a value of that term; at least `min_siblings` of them, else no test. A term
+//!   with |z| > `outlier_z` is an outlier, with its z and the fleet median as evidence. The z
+//!   divides by the fleet's spread and the estimate's own standard error in quadrature,
+//!   z = (ln v − median)/√(s² + u²) (u from the estimate's interval), as ISO 13528 scores a lab
+//!   against an assigned value with both uncertainties (its z′/ζ scores): without u, a term that
+//!   few channels show and none determines well (a quantisation Q the criterion admitted on 5 of
+//!   60 clean channels, ±30 % each) gets a fleet spread from a handful of values that happen to
+//!   agree, and a sibling 13 % off reads z = −5.
+//! - **Unusual effects** per sensor kind: an effect kind the residual loop added on fewer than
+//!   `rare_effect_share` of the analysed siblings (at least `min_siblings` of them) marks each
+//!   channel that shows it (a line on one robot of fifty; not the temperature coupling every unit
+//!   of the batch shows).
+//! - **Quality**: a channel the quality screen gave a verdict other than `no_unit` (stuck,
+//!   frozen runs, saturation, too few levels).
+//!
+//! A channel is *flagged* when it fails a limit, is an outlier in a term, shows an unusual effect
+//! or has such a quality verdict; `reasons` says which, with the numbers. Undecided verdicts are
+//! listed but do not flag: they say the record cannot tell, not that the sensor is bad.
+
+use std::collections::BTreeMap;
+
+use crate::model::{CoefUnit, Sensor, Term};
+
+use super::record::{ChannelRecord, Status};
+use super::robust::RobustScale;
+use super::spec::Spec;
+use super::table::sensor_name;
+use super::verdict::{judge, Basis, Verdict};
+
+/// One term of one channel, judged.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TermAssessment {
+    /// The specification's limit (SI), if it sets one.
+    pub limit: Option<f64>,
+    pub verdict: Option<Verdict>,
+    pub basis: Option<Basis>,
+    /// Robust z of ln(value) among the siblings (`None`: no value, or too few siblings).
+    pub z: Option<f64>,
+    /// The siblings' median of the term (SI), the z's reference.
+    pub median: Option<f64>,
+    pub outlier: bool,
+}
+
+/// An effect few siblings show.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UnusualEffect {
+    pub kind: String,
+    /// Channels of this sensor kind that show it, and that were analysed.
+    pub count: usize,
+    pub siblings: usize,
+}
+
+/// A channel with its judgement.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FleetRow {
+    pub record: ChannelRecord,
+    pub terms: [TermAssessment; 5],
+    pub unusual_effects: Vec<UnusualEffect>,
+    pub flagged: bool,
+    /// One line per reason it is flagged (spec failures, outliers, unusual effects, quality).
+    pub reasons: Vec<String>,
+}
+
+/// The fleet statistics of one term of one sensor kind.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TermStats {
+    pub sensor: Sensor,
+    pub term: Term,
+    /// ln-scale centre and spread; `None` below `min_siblings`.
+    pub scale: Option<RobustScale>,
+    /// Channels with a value of the term.
+    pub count: usize,
+}
+
+/// The judged fleet.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fleet {
+    pub rows: Vec<FleetRow>,
+    pub stats: Vec<TermStats>,
+    pub spec: Spec,
+}
+
+/// The unit a term is shown in: the limit's when the specification sets one, else the
+/// datasheet unit.
+pub fn display_unit(spec: &Spec, sensor: Sensor, term: Term) -> CoefUnit {
+    spec.limit(sensor, term)
+        .map_or_else(|| CoefUnit::display_pair(sensor, term).0, |l| l.unit)
+}
+
+/// `value` (SI) in the display unit, with 4 significant digits and the unit.
+pub fn show(spec: &Spec, sensor: Sensor, term: Term, value: f64) -> String {
+    let u = display_unit(spec, sensor, term);
+    format!("{} {}", crate::report::sig4(u.from_si(value)), u.pretty())
+}
+
+/// Judges every record. Rows are ordered by relative path, key and channel position, so that the
+/// table does not depend on how the run was sharded.
+pub fn assess(mut records: Vec<ChannelRecord>, spec: &Spec) -> Fleet {
+    records.sort_by(|a, b| {
+        (a.rel.as_str(), a.key.as_str(), a.channel_index).cmp(&(
+            b.rel.as_str(),
+            b.key.as_str(),
+            b.channel_index,
+        ))
+    });
+    let opts = spec.fleet;
+    let ok = |r: &&ChannelRecord| r.status == Status::Ok;
+    let mut stats = Vec::new();
+    for sensor in [Sensor::Gyro, Sensor::Accel] {
+        for term in Term::ALL {
+            let logs: Vec<f64> = records
+                .iter()
+                .filter(ok)
+                .filter(|r| r.kind == Some(sensor))
+                .filter_map(|r| r.term(term).value)
+                .filter(|v| *v > 0.0 && v.is_finite())
+                .map(f64::ln)
+                .collect();
+            if logs.is_empty() {
+                continue;
+            }
+            stats.push(TermStats {
+                sensor,
+                term,
+                scale: RobustScale::of(&logs, opts.min_siblings),
+                count: logs.len(),
+            });
+        }
+    }
+    // Effect counts per sensor kind over the analysed channels.
+    let mut effect_counts: BTreeMap<(&'static str, String), usize> = BTreeMap::new();
+    let mut analysed: BTreeMap<&'static str, usize> = BTreeMap::new();
+    for r in records.iter().filter(ok).filter(|r| r.analysed) {
+        let Some(sensor) = r.kind else { continue };
+        *analysed.entry(sensor_name(sensor)).or_default() += 1;
+        let mut kinds: Vec<&String> = r.effects.iter().collect();
+        kinds.sort();
+        kinds.dedup();
+        for k in kinds {
+            *effect_counts
+                .entry((sensor_name(sensor), k.clone()))
+                .or_default() += 1;
+        }
+    }
+    let rows = records
+        .into_iter()
+        .map(|record| {
+            let mut terms = [TermAssessment::default(); 5];
+            let mut unusual = Vec::new();
+            let mut reasons = Vec::new();
+            if let (Status::Ok, Some(sensor)) = (record.status, record.kind) {
+                for term in Term::ALL {
+                    let a = &mut terms[term.index()];
+                    let values = record.term(term);
+                    if let Some(limit) = spec.limit(sensor, term) {
+                        let (v, b) = judge(values.interval(), values.upper, limit.si);
+                        a.limit = Some(limit.si);
+                        a.verdict = Some(v);
+                        a.basis = Some(b);
+                        if v == Verdict::Fail {
+                            let (lo, hi) = values.interval().unwrap_or((f64::NAN, f64::NAN));
+                            reasons.push(format!(
+                                "{} fails: {} [{}, {}] > limit {}",
+                                term.symbol(),
+                                show(spec, sensor, term, values.value.unwrap_or(f64::NAN)),
+                                show(spec, sensor, term, lo),
+                                show(spec, sensor, term, hi),
+                                show(spec, sensor, term, limit.si),
+                            ));
+                        }
+                    }
+                    let stat = stats
+                        .iter()
+                        .find(|s| s.sensor == sensor && s.term == term)
+                        .and_then(|s| s.scale);
+                    if let (Some(s), Some(v)) = (stat, values.value.filter(|v| *v > 0.0)) {
+                        let u = record
+                            .confidence
+                            .and_then(|p| values.log_se(p))
+                            .unwrap_or(0.0);
+                        let z = s.z_with(v.ln(), u);
+                        a.z = Some(z);
+                        a.median = Some(s.median.exp());
+                        a.outlier = z.abs() > opts.outlier_z;
+                        if a.outlier {
+                            reasons.push(format!(
+                                "{} outlier: {} is {:.2}× the fleet median {} (robust z = {:+.1})",
+                                term.symbol(),
+                                show(spec, sensor, term, v),
+                                v / s.median.exp(),
+                                show(spec, sensor, term, s.median.exp()),
+                                z
+                            ));
+                        }
+                    }
+                }
+                let name = sensor_name(sensor);
+                let siblings = analysed.get(name).copied().unwrap_or(0);
+                if record.analysed && siblings >= opts.min_siblings {
+                    let mut kinds: Vec<&String> = record.effects.iter().collect();
+                    kinds.sort();
+                    kinds.dedup();
+                    for k in kinds {
+                        let count = effect_counts
+                            .get(&(name, k.clone()))
+                            .copied()
+                            .unwrap_or(0);
+                        if (count as f64) < opts.rare_effect_share * siblings as f64 {
+                            let detail = record
+                                .effects
+                                .iter()
+                                .zip(&record.effects_detail)
+                                .find(|(e, _)| *e == k)
+                                .map_or(String::new(), |(_, d)| format!(": {d}"));
+                            reasons.push(format!(
+                                "unusual effect {k} ({count} of {siblings} {name} channels show it){detail}"
+                            ));
+                            unusual.push(UnusualEffect {
+                                kind: k.clone(),
+                                count,
+                                siblings,
+                            });
+                        }
+                    }
+                }
+                for (q, d) in record.quality.iter().zip(&record.quality_detail) {
+                    if q != "no_unit" {
+                        reasons.push(format!("quality {q}: {d}"));
+                    }
+                }
+            }
+            FleetRow {
+                flagged: !reasons.is_empty(),
+                record,
+                terms,
+                unusual_effects: unusual,
+                reasons,
+            }
+        })
+        .collect();
+    Fleet {
+        rows,
+        stats,
+        spec: spec.clone(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fleet::record::TermValues;
+    use crate::fleet::Input;
+
+    fn channel(i: usize, n: f64, effects: &[&str]) -> ChannelRecord {
+        let input = Input {
+            path: format!("f/s{i:02}.arrow").into(),
+            rel: format!("s{i:02}.arrow"),
+            sensor: format!("s{i:02}"),
+            key: format!("s{i:02}-0"),
+            hash: i as u64,
+        };
+        let mut r = ChannelRecord::error(&input, String::new());
+        r.status = Status::Ok;
+        r.error = None;
+        r.kind = Some(Sensor::Gyro);
+        r.channel = Some("gyro_x".into());
+        r.channel_index = Some(0);
+        r.analysed = true;
+        r.terms[Term::RandomWalk.index()] = TermValues {
+            value: Some(n),
+            lo: Some(n * 0.97),
+            hi: Some(n * 1.03),
+            upper: None,
+        };
+        r.terms[Term::RateRamp.index()].upper = Some(1e-9);
+        r.confidence = Some(0.6827);
+        r.effects = effects.iter().map(|s| s.to_string()).collect();
+        r.effects_detail = effects.iter().map(|s| format!("{s} detail")).collect();
+        r
+    }
+
+    #[test]
+    fn flags_exactly_the_failure_the_outlier_and_the_rare_effect() {
+        let n0 = CoefUnit::DegPerSqrtH.to_si(0.15);
+        let mut records: Vec<ChannelRecord> = (0..12)
+            .map(|i| channel(i, n0 * (1.0 + 0.02 * (i as f64 - 6.0)), &["coupling"]))
+            .collect();
+        records[3] = channel(3, 3.0 * n0, &["coupling"]);
+        records[7].effects.push("sinusoid".into());
+        records[7].effects_detail.push("line at 7 Hz".into());
+        let spec = Spec::parse("[gyro]\nN = \"0.3 deg/sqrt(h)\"\nR = \"1 deg/h^2\"").unwrap();
+        let fleet = assess(records, &spec);
+        let flagged: Vec<&str> = fleet
+            .rows
+            .iter()
+            .filter(|r| r.flagged)
+            .map(|r| r.record.sensor.as_str())
+            .collect();
+        assert_eq!(flagged, ["s03", "s07"]);
+        let s3 = &fleet.rows[3];
+        let n = &s3.terms[Term::RandomWalk.index()];
+        assert_eq!(n.verdict, Some(Verdict::Fail));
+        assert!(n.outlier && n.z.unwrap() > 3.5, "{n:?}");
+        assert!(
+            s3.reasons.iter().any(|r| r.contains("N fails")),
+            "{:?}",
+            s3.reasons
+        );
+        // R has an upper limit only, below the limit: a pass on that basis.
+        let r = &s3.terms[Term::RateRamp.index()];
+        assert_eq!(
+            (r.verdict, r.basis),
+            (Some(Verdict::Pass), Some(Basis::UpperLimit))
+        );
+        let s7 = &fleet.rows[7];
+        assert_eq!(s7.unusual_effects[0].kind, "sinusoid");
+        assert_eq!(s7.unusual_effects[0].count, 1);
+        // The coupling every channel shows is not unusual.
+        assert!(fleet
+            .rows
+            .iter()
+            .all(|r| r.unusual_effects.iter().all(|u| u.kind != "coupling")));
+        assert_eq!(
+            fleet.rows[0].terms[Term::RandomWalk.index()].verdict,
+            Some(Verdict::Pass)
+        );
+    }
+
+    #[test]
+    fn too_few_siblings_no_outlier_test() {
+        let records: Vec<ChannelRecord> = (0..4)
+            .map(|i| channel(i, 1e-4 * (1.0 + i as f64), &["step"]))
+            .collect();
+        let fleet = assess(records, &Spec::default());
+        assert!(fleet
+            .rows
+            .iter()
+            .all(|r| !r.flagged && r.terms[1].z.is_none()));
+    }
+}

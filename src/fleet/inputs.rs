@@ -1,0 +1,321 @@
+//! Which recordings a screen takes, in which order, and which of them a shard takes.
+//!
+//! Arguments are folders or files. A folder is walked recursively, each level in byte order of
+//! the names, taking the files whose extension a reader knows ([`Format::from_extension`]) and
+//! skipping hidden entries (names starting with `.`: temporary files, `.git`), symbolic links to
+//! folders (no cycles) and the output folder (a screen of `.` into `./out` must not read its own
+//! Parquet results). A file named as an argument is taken whatever its extension: the reader
+//! says what it is. Roots are taken in argument order; a path met twice is taken once.
+//!
+//! **The relative path** of an input is its path below the folder argument it was found in, or,
+//! for a file argument, its file name; with `/` separators on every platform. It, not the
+//! absolute path, names the input in the output (`part-<key>.parquet`) and picks its shard, so
+//! that the tasks of a job array agree whatever the mount point each machine sees, and so that a
+//! rerun that spells the folder differently (`./fleet`, `/data/fleet`) still finds its results.
+//!
+//! **Shards.** `K/N` takes the inputs whose key hash is ≡ K (mod N): a stable hash
+//! ([`super::hash::fnv64`]) of the relative path. Chosen over the index in the sorted list
+//! because it does not move a file to another shard when the fleet grows (a nightly run over a
+//! folder that gains recordings recomputes only the new ones); the price is shards that differ in
+//! size by about √(n/N) files.
+
+use std::collections::{HashMap, HashSet};
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
+
+use crate::io::Format;
+
+use super::hash::fnv64;
+use super::ScreenError;
+
+/// One recording of the screen.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Input {
+    /// The path to open (the root as given joined with the relative path).
+    pub path: PathBuf,
+    /// Path below its root, `/`-separated (see the module docs).
+    pub rel: String,
+    /// The sensor's name: the file stem, or the relative path without extension where several
+    /// inputs share a stem (`robot07/imu` for `robot07/imu.mcap`).
+    pub sensor: String,
+    /// Names the input's result: `<stem>-<16 hex digits of the hash>`.
+    pub key: String,
+    /// The stable hash behind the key and the shard.
+    pub hash: u64,
+}
+
+impl Input {
+    /// Whether shard `shard` takes this input.
+    pub fn in_shard(&self, shard: Shard) -> bool {
+        self.hash % u64::from(shard.count) == u64::from(shard.index)
+    }
+}
+
+/// Shard `index` of `count` (0-based: `--array=0-15` gives 0/16 … 15/16).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    pub index: u32,
+    pub count: u32,
+}
+
+impl Shard {
+    /// The whole run as one shard.
+    pub const ALL: Shard = Shard { index: 0, count: 1 };
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+
+    /// `K/N` with 0 ≤ K < N.
+    fn from_str(s: &str) -> Result<Shard, String> {
+        let bad = || format!("{s:?}: expected K/N with 0 <= K < N, e.g. 3/16");
+        let (k, n) = s.trim().split_once('/').ok_or_else(bad)?;
+        let index: u32 = k.trim().parse().map_err(|_| bad())?;
+        let count: u32 = n.trim().parse().map_err(|_| bad())?;
+        if count == 0 || index >= count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+/// Reads a list of paths, one per line (`-`: standard input); blank lines and lines starting with
+/// `#` are skipped. Relative paths are relative to the current folder, as for `tar -T`.
+pub fn read_list(list: &Path) -> Result<Vec<PathBuf>, ScreenError> {
+    let err = |e: std::io::Error| ScreenError::Input {
+        path: list.to_path_buf(),
+        message: e.to_string(),
+    };
+    let reader: Box<dyn BufRead> = if list.as_os_str() == "-" {
+        Box::new(std::io::stdin().lock())
+    } else {
+        Box::new(std::io::BufReader::new(
+            std::fs::File::open(list).map_err(err)?,
+        ))
+    };
+    let mut out = Vec::new();
+    for line in reader.lines() {
+        let line = line.map_err(err)?;
+        let t = line.trim();
+        if !t.is_empty() && !t.starts_with('#') {
+            out.push(PathBuf::from(t));
+        }
+    }
+    Ok(out)
+}
+
+/// The inputs named by `args` (folders or files), in order; `exclude` is a folder never entered
+/// (the output folder). An argument that does not exist is an error naming it.
+pub fn collect_inputs(args: &[PathBuf], exclude: Option<&Path>) -> Result<Vec<Input>, ScreenError> {
+    let exclude = exclude.and_then(|p| p.canonicalize().ok());
+    // (root index, path, relative path)
+    let mut found: Vec<(usize, PathBuf, String)> = Vec::new();
+    let mut seen = HashSet::new();
+    for (root_index, arg) in args.iter().enumerate() {
+        let meta = std::fs::metadata(arg).map_err(|e| ScreenError::Input {
+            path: arg.clone(),
+            message: e.to_string(),
+        })?;
+        let mut here = Vec::new();
+        if meta.is_dir() {
+            walk(arg, arg, exclude.as_deref(), &mut here)?;
+        } else {
+            let name = arg
+                .file_name()
+                .map_or_else(|| arg.display().to_string(), |n| n.to_string_lossy().into());
+            here.push((arg.clone(), name));
+        }
+        for (path, rel) in here {
+            if seen.insert(path.clone()) {
+                found.push((root_index, path, rel));
+            }
+        }
+    }
+    // The same relative path under two roots: tell them apart by the root's position.
+    let mut rel_count: HashMap<&str, usize> = HashMap::new();
+    for (_, _, rel) in &found {
+        *rel_count.entry(rel.as_str()).or_default() += 1;
+    }
+    let hashes: Vec<u64> = found
+        .iter()
+        .map(|(root, _, rel)| {
+            if rel_count[rel.as_str()] > 1 {
+                fnv64(format!("{root}:{rel}").as_bytes())
+            } else {
+                fnv64(rel.as_bytes())
+            }
+        })
+        .collect();
+    let stem = |rel: &str| {
+        let name = rel.rsplit('/').next().unwrap_or(rel);
+        match name.rsplit_once('.') {
+            Some((s, _)) if !s.is_empty() => s.to_string(),
+            _ => name.to_string(),
+        }
+    };
+    let mut stem_count: HashMap<String, usize> = HashMap::new();
+    for (_, _, rel) in &found {
+        *stem_count.entry(stem(rel)).or_default() += 1;
+    }
+    Ok(found
+        .into_iter()
+        .zip(hashes)
+        .map(|((_, path, rel), hash)| {
+            let s = stem(&rel);
+            let sensor = if stem_count[&s] > 1 {
+                match rel.rsplit_once('.') {
+                    Some((without, _)) if !without.ends_with('/') => without.to_string(),
+                    _ => rel.clone(),
+                }
+            } else {
+                s.clone()
+            };
+            Input {
+                key: format!("{}-{hash:016x}", sanitize(&s)),
+                path,
+                rel,
+                sensor,
+                hash,
+            }
+        })
+        .collect())
+}
+
+/// A file-name-safe form of a stem: ASCII letters, digits, `_`, `-` and `.`, at most 40 of them.
+fn sanitize(stem: &str) -> String {
+    let s: String = stem
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .take(40)
+        .collect();
+    if s.is_empty() {
+        "input".into()
+    } else {
+        s
+    }
+}
+
+fn walk(
+    root: &Path,
+    dir: &Path,
+    exclude: Option<&Path>,
+    out: &mut Vec<(PathBuf, String)>,
+) -> Result<(), ScreenError> {
+    if let (Some(ex), Ok(canon)) = (exclude, dir.canonicalize()) {
+        if canon == ex {
+            return Ok(());
+        }
+    }
+    let err = |e: std::io::Error| ScreenError::Input {
+        path: dir.to_path_buf(),
+        message: e.to_string(),
+    };
+    let mut entries: Vec<(std::ffi::OsString, PathBuf)> = std::fs::read_dir(dir)
+        .map_err(err)?
+        .map(|e| e.map(|e| (e.file_name(), e.path())))
+        .collect::<Result<_, _>>()
+        .map_err(err)?;
+    entries.sort();
+    for (name, path) in entries {
+        if name.to_string_lossy().starts_with('.') {
+            continue;
+        }
+        let link = std::fs::symlink_metadata(&path).map_err(err)?;
+        // Follows links to files; a link to a folder could make a cycle.
+        let Ok(meta) = std::fs::metadata(&path) else {
+            continue;
+        };
+        if meta.is_dir() {
+            if !link.file_type().is_symlink() {
+                walk(root, &path, exclude, out)?;
+            }
+        } else if meta.is_file() && Format::from_extension(&path).is_some() {
+            out.push((path.clone(), relative(root, &path)));
+        }
+    }
+    Ok(())
+}
+
+/// `path` below `root`, `/`-separated.
+fn relative(root: &Path, path: &Path) -> String {
+    let rel = path.strip_prefix(root).unwrap_or(path);
+    rel.components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect::<Vec<_>>()
+        .join("/")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shard_parses_and_partitions() {
+        assert_eq!(
+            "3/16".parse::<Shard>().unwrap(),
+            Shard {
+                index: 3,
+                count: 16
+            }
+        );
+        for bad in ["16/16", "1/0", "a/2", "3", "-1/2"] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
+        let dir = tempfile::tempdir().unwrap();
+        for name in [
+            "b.arrow",
+            "a.csv",
+            "sub/c.parquet",
+            "sub/.hidden.csv",
+            "notes.txt",
+        ] {
+            let p = dir.path().join(name);
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(&p, "x").unwrap();
+        }
+        let inputs = collect_inputs(&[dir.path().to_path_buf()], None).unwrap();
+        let rels: Vec<&str> = inputs.iter().map(|i| i.rel.as_str()).collect();
+        assert_eq!(rels, ["a.csv", "b.arrow", "sub/c.parquet"]);
+        // Every input in exactly one of three shards.
+        for i in &inputs {
+            let n = (0..3)
+                .filter(|&k| i.in_shard(Shard { index: k, count: 3 }))
+                .count();
+            assert_eq!(n, 1);
+        }
+        // The key depends on the relative path only, not on how the root is spelled.
+        let again = collect_inputs(&[dir.path().join("sub").join("..")], None).unwrap();
+        assert_eq!(
+            inputs.iter().map(|i| &i.key).collect::<Vec<_>>(),
+            again.iter().map(|i| &i.key).collect::<Vec<_>>()
+        );
+        assert_eq!(inputs[2].key, format!("c-{:016x}", fnv64(b"sub/c.parquet")));
+    }
+
+    #[test]
+    fn shared_stems_get_their_folder_and_the_output_folder_is_skipped() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["r1/imu.mcap", "r2/imu.mcap", "out/results/part-x.parquet"] {
+            let p = dir.path().join(name);
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(&p, "x").unwrap();
+        }
+        let inputs =
+            collect_inputs(&[dir.path().to_path_buf()], Some(&dir.path().join("out"))).unwrap();
+        let sensors: Vec<&str> = inputs.iter().map(|i| i.sensor.as_str()).collect();
+        assert_eq!(sensors, ["r1/imu", "r2/imu"]);
+        assert_ne!(inputs[0].key, inputs[1].key);
+    }
+}

@@ -1,0 +1,235 @@
+//! One row per inertial channel of a screened file: what the fleet step needs from a file's
+//! analysis, and nothing that grows with the recording's length (no spectra, no samples), so that
+//! the file's [`FileResult`] can be dropped as soon as its rows are written.
+//!
+//! A file that could not be analysed (unreadable, empty, no inertial channel, a unit that does not
+//! parse) is one row with `status = error` and its message, so that the batch goes on and the
+//! fleet table lists it.
+
+use crate::analysis::ChannelAnalysis;
+use crate::model::{Domain, NoiseFit, Sensor, Term};
+use crate::pipeline::FileResult;
+use crate::report::{effect_line, EffectUnits};
+
+use super::Input;
+
+/// Whether a file was analysed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Status {
+    Ok,
+    Error,
+}
+
+impl Status {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Status::Ok => "ok",
+            Status::Error => "error",
+        }
+    }
+}
+
+/// A term's combined estimate with its interval (SI), or, when no fit admitted the term, the
+/// upper limit the fits still allow.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TermValues {
+    pub value: Option<f64>,
+    pub lo: Option<f64>,
+    pub hi: Option<f64>,
+    /// Only when there is no value: the largest coefficient compatible with the data.
+    pub upper: Option<f64>,
+}
+
+impl TermValues {
+    /// The interval, when the term was estimated.
+    pub fn interval(&self) -> Option<(f64, f64)> {
+        Some((self.lo?, self.hi?))
+    }
+
+    /// The standard error of ln(value) implied by the interval at two-sided probability
+    /// `confidence`: ln(hi/lo)/(2z), or from the upper half, ln(hi/value)/z, for an interval that
+    /// reaches 0; `None` without a positive value and interval.
+    pub fn log_se(&self, confidence: f64) -> Option<f64> {
+        let (v, lo, hi) = (self.value?, self.lo?, self.hi?);
+        let z = crate::stats::normal_quantile((1.0 + confidence) / 2.0);
+        if !(v > 0.0 && hi >= v && z > 0.0 && z.is_finite()) {
+            return None;
+        }
+        Some(if lo > 0.0 {
+            (hi / lo).ln() / (2.0 * z)
+        } else {
+            (hi / v).ln() / z
+        })
+    }
+}
+
+/// One inertial channel of one file (or the file's error).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelRecord {
+    pub sensor: String,
+    /// The path the file was opened at.
+    pub path: String,
+    /// The path below its input root (see [`super::inputs`]).
+    pub rel: String,
+    pub key: String,
+    pub status: Status,
+    pub error: Option<String>,
+    /// Position among the file's channels (all of them, not only the inertial ones).
+    pub channel_index: Option<u32>,
+    pub channel: Option<String>,
+    pub kind: Option<Sensor>,
+    pub rate_hz: Option<f64>,
+    pub duration_s: Option<f64>,
+    pub samples: Option<u64>,
+    /// The noise model was fitted (false for a channel the quality screen found unanalysable, or
+    /// whose fits both failed).
+    pub analysed: bool,
+    /// Per term, in [`Term::ALL`] order.
+    pub terms: [TermValues; 5],
+    /// Two-sided probability of the intervals (`--confidence`; 0.6827 for 1σ).
+    pub confidence: Option<f64>,
+    /// Kinds of the effects the residual loop added (`sinusoid`, `step`, …), in the loop's order.
+    pub effects: Vec<String>,
+    /// The same, described with parameters and intervals.
+    pub effects_detail: Vec<String>,
+    /// Names of the quality verdicts (`stuck_run`, `possibly_saturated`, …).
+    pub quality: Vec<String>,
+    pub quality_detail: Vec<String>,
+    /// The combined fit's warnings, the backend's notes and the reader's notes.
+    pub warnings: Vec<String>,
+}
+
+impl ChannelRecord {
+    /// The error row of `input`.
+    pub fn error(input: &Input, message: String) -> ChannelRecord {
+        ChannelRecord {
+            sensor: input.sensor.clone(),
+            path: input.path.display().to_string(),
+            rel: input.rel.clone(),
+            key: input.key.clone(),
+            status: Status::Error,
+            error: Some(message),
+            channel_index: None,
+            channel: None,
+            kind: None,
+            rate_hz: None,
+            duration_s: None,
+            samples: None,
+            analysed: false,
+            terms: [TermValues::default(); 5],
+            confidence: None,
+            effects: Vec::new(),
+            effects_detail: Vec::new(),
+            quality: Vec::new(),
+            quality_detail: Vec::new(),
+            warnings: Vec::new(),
+        }
+    }
+
+    /// The values of `term`.
+    pub fn term(&self, term: Term) -> &TermValues {
+        &self.terms[term.index()]
+    }
+
+    /// The rows of a file's result: one per gyro or accelerometer channel, in file order.
+    pub fn from_result(input: &Input, r: &FileResult) -> Vec<ChannelRecord> {
+        let mut file_notes: Vec<String> = r.recording.notes.clone();
+        file_notes.extend(r.backend_notes.iter().cloned());
+        r.recording
+            .channels
+            .iter()
+            .enumerate()
+            .filter_map(|(i, c)| Some((i, c, Sensor::of_kind(c.kind)?)))
+            .map(|(i, c, sensor)| {
+                let analysis = r.analysis.iter().flatten().find(|a| a.channel == c.name);
+                let quality = r.quality.channels.iter().find(|q| q.name == c.name);
+                let mut rec = ChannelRecord::error(input, String::new());
+                rec.status = Status::Ok;
+                rec.error = None;
+                rec.channel_index = Some(i as u32);
+                rec.channel = Some(c.name.clone());
+                rec.kind = Some(sensor);
+                rec.rate_hz = Some(r.recording.rate_hz);
+                rec.duration_s = Some(r.quality.duration_s);
+                rec.samples = Some(r.quality.samples_out);
+                if let Some(q) = quality {
+                    for v in &q.verdicts {
+                        rec.quality.push(verdict_name(v));
+                        rec.quality_detail.push(v.describe());
+                    }
+                }
+                if let Some(a) = analysis {
+                    fill_analysis(&mut rec, a, &EffectUnits::of(&r.recording, &c.name));
+                }
+                rec.warnings.extend(file_notes.iter().cloned());
+                rec
+            })
+            .collect()
+    }
+}
+
+fn verdict_name(v: &crate::quality::ChannelVerdict) -> String {
+    match serde_json::to_value(v) {
+        Ok(serde_json::Value::Object(m)) => m
+            .get("verdict")
+            .and_then(|s| s.as_str())
+            .unwrap_or("unknown")
+            .to_string(),
+        _ => "unknown".into(),
+    }
+}
+
+fn fill_analysis(rec: &mut ChannelRecord, a: &ChannelAnalysis, units: &EffectUnits) {
+    rec.analysed = a.allan.is_ok() || a.spectrum.is_ok();
+    rec.confidence = a.allan_fit().or(a.spectrum_fit()).map(|f| f.confidence);
+    for term in Term::ALL {
+        let slot = &mut rec.terms[term.index()];
+        match a.combined.get(term) {
+            Some(c) => {
+                slot.value = Some(c.value);
+                slot.lo = Some(c.lo);
+                slot.hi = Some(c.hi);
+            }
+            None => slot.upper = upper_limit(a.allan_fit(), a.spectrum_fit(), term),
+        }
+    }
+    if let Some(l) = &a.residual_loop {
+        for s in &l.steps {
+            rec.effects.push(s.effect.kind().to_string());
+            rec.effects_detail.push(effect_line(&s.effect, units));
+        }
+    }
+    rec.warnings
+        .extend(a.combined.warnings.iter().map(|w| w.describe()));
+    for (domain, fit) in [("Allan", &a.allan), ("spectrum", &a.spectrum)] {
+        if let Err(e) = fit {
+            rec.warnings.push(format!("{domain} fit failed: {e}"));
+        }
+    }
+}
+
+/// The largest value of `term` the fits allow when the combined estimate has none: over the fits,
+/// the upper end of a kept estimate's interval (a fit that kept it ambiguously) or the fit's
+/// upper limit; the larger of the two fits, so that a pass on it holds for both. The spectrum's
+/// bound on a rate ramp is left out: its lowest band is above the drift (see
+/// [`crate::model::combine`]).
+pub fn upper_limit(
+    allan: Option<&NoiseFit>,
+    spectrum: Option<&NoiseFit>,
+    term: Term,
+) -> Option<f64> {
+    [allan, spectrum]
+        .into_iter()
+        .flatten()
+        .filter(|f| !(term == Term::RateRamp && f.domain == Domain::Spectrum))
+        .filter_map(|f| {
+            f.get(term).map(|e| e.hi).or_else(|| {
+                f.upper_limits
+                    .iter()
+                    .find(|u| u.term == term)
+                    .map(|u| u.upper)
+            })
+        })
+        .filter(|u| u.is_finite())
+        .reduce(f64::max)
+}
