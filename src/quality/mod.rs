@@ -224,7 +224,11 @@ impl ChannelVerdict {
                 samples_at_min,
                 samples_at_max,
             } => {
-                let noun = if *samples_at_min == 1 { "sample" } else { "samples" };
+                let noun = if *samples_at_min == 1 {
+                    "sample"
+                } else {
+                    "samples"
+                };
                 format!(
                     "possibly saturated ({samples_at_min} {noun} at the minimum, {samples_at_max} \
                      at the maximum)"
