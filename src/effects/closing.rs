@@ -22,6 +22,7 @@
 //! additions.
 //! Every step records the error before and after (χ²/dof and RMS log residual in both domains).
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::avar::{compute, Confidence, Deviations, Statistic, TauGrid};
@@ -730,6 +731,26 @@ fn slow_candidates(
     out
 }
 
+/// The fit options for the many fits of a profile over an effect's shape parameters (a resonance's
+/// f₀ and Q, a Gauss–Markov Tc): the base terms chosen among those the current fits kept in
+/// either domain, not among all. An effect may replace a kept term but not call for a new one
+/// (the selection over every subset is what made the loop slow: 31 subsets per fit, hundreds of
+/// fits per channel). The optimum found this way is refitted with the full selection, which gives
+/// the candidate's fits and ΔBIC; a profile point scores at best as well as with the full
+/// selection, so the restriction can only make a profile interval wider, never narrower.
+fn profile_options(state: &State, cfg: &LoopConfig) -> FitOptions {
+    let kept: Vec<Term> = [state.allan.as_ref(), state.spectrum.as_ref()]
+        .into_iter()
+        .flatten()
+        .flat_map(|f| f.estimates.iter().map(|e| e.term))
+        .collect();
+    let mut opts = cfg.fit.clone();
+    if !kept.is_empty() {
+        opts.terms.retain(|t| kept.contains(t));
+    }
+    opts
+}
+
 /// ΔBIC of a stochastic effect: the change of the best score in each domain plus `extra` shape
 /// parameters per domain. `None` when a fit failed or the effect came out zero.
 fn stochastic_delta(
@@ -807,14 +828,16 @@ fn resonance_candidate(
 ) -> Option<Candidate> {
     let nyquist = fs / 2.0;
     let q0 = (e.freq_hz / e.width_hz.max(state.psd.bin_width_hz())).clamp(0.5, 1e4);
-    let fit_at = |f0: f64, q: f64| -> (f64, Option<NoiseFit>) {
+    let profile_opts = profile_options(state, cfg);
+    let fit_with = |f0: f64, q: f64, opts: &FitOptions| -> (f64, Option<NoiseFit>) {
         if !(f0 > 0.0 && f0 < nyquist) {
             return (f64::INFINITY, None);
         }
         let shape = Resonance::new(f0, q, fs);
-        let spectrum = fit_psd_with(&state.psd, &state.binned, &cfg.fit, Some(&shape)).ok();
+        let spectrum = fit_psd_with(&state.psd, &state.binned, opts, Some(&shape)).ok();
         (spectrum.as_ref().map_or(f64::INFINITY, score), spectrum)
     };
+    let fit_at = |f0: f64, q: f64| fit_with(f0, q, &profile_opts);
     let mut q_points: Vec<(f64, f64, Option<EffectEstimate>)> = Vec::new();
     let mut f_points: Vec<(f64, f64, Option<EffectEstimate>)> = Vec::new();
     let (lq_lo, lq_hi) = ((q0 / 8.0).max(0.5).ln(), (q0 * 8.0).min(1e4).ln());
@@ -847,16 +870,31 @@ fn resonance_candidate(
     let (lq, best) = by_q(f0, &mut q_points);
     q = lq.exp();
     // Profile grids around the optimum, for the intervals.
-    for k in -12..=12 {
-        let qk = q * 10f64.powf(f64::from(k) / 12.0);
-        let (sc, fit) = fit_at(f0, qk);
-        q_points.push((qk, sc, fit.and_then(|f| f.effect)));
-        let fk = f0 + f64::from(k) / 12.0 * (f0 / q);
-        let (sc, fit) = fit_at(fk, q);
-        f_points.push((fk, sc, fit.and_then(|f| f.effect)));
+    let grid: Vec<_> = (-12..=12)
+        .into_par_iter()
+        .map(|k| {
+            let qk = q * 10f64.powf(f64::from(k) / 12.0);
+            let (sq, fq) = fit_at(f0, qk);
+            let fk = f0 + f64::from(k) / 12.0 * (f0 / q);
+            let (sf, ff) = fit_at(fk, q);
+            (
+                (qk, sq, fq.and_then(|f| f.effect)),
+                (fk, sf, ff.and_then(|f| f.effect)),
+            )
+        })
+        .collect();
+    for (qp, fp) in grid {
+        q_points.push(qp);
+        f_points.push(fp);
     }
-    let (score_best, spectrum) = fit_at(f0, q);
-    let best = best.min(score_best);
+    // The profile intervals compare restricted fits with the best restricted score; the
+    // candidate's own fit at the optimum has every base term allowed.
+    let best = q_points
+        .iter()
+        .chain(&f_points)
+        .map(|p| p.1)
+        .fold(best, f64::min);
+    let (_, spectrum) = fit_with(f0, q, &cfg.fit);
     let shape = Resonance::new(f0, q, fs);
     let allan = fit_avar_with(&state.dev, &cfg.fit, Some(&shape)).ok();
     let (ds, da) = stochastic_delta(state, allan.as_ref(), spectrum.as_ref(), 2.0)?;
@@ -917,43 +955,52 @@ fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig, p: f64) -> O
         allan: NoiseFit,
         spectrum: Option<NoiseFit>,
     }
+    let profile_opts = profile_options(state, cfg);
+    let point = |tc: f64, opts: &FitOptions| -> Option<Point> {
+        let shape = GaussMarkov1 { tc_s: tc };
+        let spectrum = fit_psd_with(&state.psd, &state.binned, opts, Some(&shape)).ok();
+        let allan = fit_avar_with(&state.dev, opts, Some(&shape)).ok()?;
+        // A knee below the spectrum fit's lowest band is invisible there: only the Allan fit
+        // votes.
+        let knee = 1.0 / (2.0 * std::f64::consts::PI * tc);
+        let visible = knee >= lowest_band;
+        let da = score(&allan) + (allan.points.len() as f64).ln() - score(a0);
+        let ds = spectrum.as_ref().map_or(f64::INFINITY, |f| {
+            score(f) + (f.points.len() as f64).ln() - score(s0)
+        });
+        let delta = match (visible, ds < 0.0) {
+            (false, _) => da,
+            (true, true) => ds + da,
+            (true, false) => ds.max(0.0) + da.max(0.0),
+        } + search;
+        let effect_of = |f: &NoiseFit| f.effect.is_some_and(|e| e.value > 0.0);
+        let present = if visible {
+            spectrum.as_ref().is_some_and(effect_of)
+        } else {
+            effect_of(&allan)
+        };
+        (present && delta.is_finite()).then_some(Point {
+            tc,
+            delta,
+            ds,
+            da,
+            visible,
+            allan,
+            spectrum,
+        })
+    };
     let profile: Vec<Point> = (0..=steps)
+        .into_par_iter()
         .filter_map(|k| {
-            let tc = lo * (hi / lo).powf(k as f64 / steps.max(1) as f64);
-            let shape = GaussMarkov1 { tc_s: tc };
-            let spectrum = fit_psd_with(&state.psd, &state.binned, &cfg.fit, Some(&shape)).ok();
-            let allan = fit_avar_with(&state.dev, &cfg.fit, Some(&shape)).ok()?;
-            // A knee below the spectrum fit's lowest band is invisible there: only the Allan fit
-            // votes.
-            let knee = 1.0 / (2.0 * std::f64::consts::PI * tc);
-            let visible = knee >= lowest_band;
-            let da = score(&allan) + (allan.points.len() as f64).ln() - score(a0);
-            let ds = spectrum.as_ref().map_or(f64::INFINITY, |f| {
-                score(f) + (f.points.len() as f64).ln() - score(s0)
-            });
-            let delta = match (visible, ds < 0.0) {
-                (false, _) => da,
-                (true, true) => ds + da,
-                (true, false) => ds.max(0.0) + da.max(0.0),
-            } + search;
-            let effect_of = |f: &NoiseFit| f.effect.is_some_and(|e| e.value > 0.0);
-            let present = if visible {
-                spectrum.as_ref().is_some_and(effect_of)
-            } else {
-                effect_of(&allan)
-            };
-            (present && delta.is_finite()).then_some(Point {
-                tc,
-                delta,
-                ds,
-                da,
-                visible,
-                allan,
-                spectrum,
-            })
+            point(
+                lo * (hi / lo).powf(k as f64 / steps.max(1) as f64),
+                &profile_opts,
+            )
         })
         .collect();
-    let best = profile.iter().min_by(|a, b| a.delta.total_cmp(&b.delta))?;
+    let restricted_best = profile.iter().min_by(|a, b| a.delta.total_cmp(&b.delta))?;
+    // The optimum again with every base term allowed: the candidate's fits and ΔBIC.
+    let best = &point(restricted_best.tc, &cfg.fit)?;
     let tc = best.tc;
     let shape = GaussMarkov1 { tc_s: tc };
     // σ from the domain that sees the process; it is tied to Tc (a longer correlation time puts
@@ -971,7 +1018,7 @@ fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig, p: f64) -> O
     let q = norm_isf((1.0 - p) / 2.0).powi(2);
     for e in profile
         .iter()
-        .filter(|c| c.delta <= best.delta + q)
+        .filter(|c| c.delta <= restricted_best.delta + q)
         .filter_map(sigma_of)
     {
         (sigma.lo, sigma.hi) = (sigma.lo.min(e.lo), sigma.hi.max(e.hi));

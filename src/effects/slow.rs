@@ -15,6 +15,7 @@
 //! penalty ln(M) of one parameter on M = 512 increments alone would admit ≈ 2 % of
 //! independent channels, too many for a screen of a six-axis IMU with a temperature sensor.
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::regression::{regress_series, white_noise_variance, Gls, IncrementModel, Regression};
@@ -156,11 +157,11 @@ pub fn drift_under_model(
     let duration = n as f64 / fs;
     // A noiseless regressor: one blocking (the finest) for all shapes.
     let model = IncrementModel::new(density, fs, n)?;
-    let d = model.increments(y);
+    let d = model.whitened(&model.increments(y))?;
     let fit = |shape: DriftShape| {
         let means = shape_block_means(shape, fs, model.block, model.m + 1, duration);
         let x: Vec<f64> = means.windows(2).map(|w| w[1] - w[0]).collect();
-        let gls = model.regress(&d, &x, 0.0)?;
+        let gls = model.regress_whitened(&d, &x, 0.0)?;
         Some((shape, means, gls))
     };
     let exponential = |tc_s: f64| DriftShape::Exponential { tc_s };
@@ -168,10 +169,13 @@ pub fn drift_under_model(
     while grid[grid.len() - 1] * 2.0 <= EXP_TC_MAX * duration {
         grid.push(grid[grid.len() - 1] * 2.0);
     }
+    // The shapes are independent regressions on one whitened series: fitted in parallel.
     let coarse: Vec<_> = grid
         .iter()
         .map(|&k| exponential(k))
         .chain([DriftShape::Quadratic])
+        .collect::<Vec<_>>()
+        .into_par_iter()
         .filter_map(fit)
         .collect();
     let family = (grid.len() + 1) as f64;
@@ -200,6 +204,7 @@ pub fn drift_under_model(
     if let DriftShape::Exponential { tc_s } = shape {
         let (lo, hi) = (tc_s / 3.0, tc_s * 3.0);
         let fine: Vec<_> = (0..=48)
+            .into_par_iter()
             .map(|i| lo * (hi / lo).powf(i as f64 / 48.0))
             .filter_map(|k| fit(exponential(k)))
             .collect();

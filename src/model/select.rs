@@ -22,6 +22,7 @@ use super::{
     TermEstimate, UpperLimit,
 };
 use crate::stats::normal_quantile;
+use rayon::prelude::*;
 
 /// Every subset of `allowed` (with `forced` in each) fitted on `problem` and scored by the
 /// criterion, best score first, with its mask.
@@ -33,9 +34,14 @@ pub(crate) fn rank_subsets(
 ) -> Vec<(Candidate, Mask)> {
     let n = problem.len();
     let first = if forced == 0 { 1 } else { 0 };
-    let mut fits: Vec<(Candidate, Mask)> = (first..=allowed)
+    let masks: Vec<Mask> = (first..=allowed)
         .filter(|&m| m & allowed == m)
         .map(|m| m | forced)
+        .collect();
+    // Subsets are independent: fitted in parallel, collected in mask order (so ties sort the same
+    // on any thread count).
+    let mut fits: Vec<(Candidate, Mask)> = masks
+        .into_par_iter()
         .map(|mask| {
             let fit = problem.irls(mask);
             let idx = members(mask);
