@@ -98,8 +98,9 @@ pub struct IncrementModel {
     pub block: usize,
     /// Number of increments.
     pub m: usize,
-    /// Lower Cholesky factor of the increments' covariance, row-major m×m.
-    chol: Vec<f64>,
+    /// The inverse W = L⁻¹ of the lower Cholesky factor of the increments' covariance, row-major
+    /// m×m (see [`inverse_cholesky_toeplitz`]).
+    winv: Vec<f64>,
     /// The whitened intercept column, L⁻¹1.
     ones: Vec<f64>,
 }
@@ -147,11 +148,11 @@ impl IncrementModel {
         }
         let block = n / (m + 1);
         let gamma = increment_autocovariance(density, fs, block, m);
-        let chol = cholesky_toeplitz(&gamma)?;
+        let winv = inverse_cholesky_toeplitz(&gamma)?;
         let mut model = Self {
             block,
             m,
-            chol,
+            winv,
             ones: Vec::new(),
         };
         model.ones = model.whiten(&vec![1.0; m]);
@@ -168,16 +169,15 @@ impl IncrementModel {
         means.windows(2).map(|w| w[1] - w[0]).collect()
     }
 
-    /// L⁻¹v by forward substitution.
+    /// L⁻¹v = W·v.
     fn whiten(&self, v: &[f64]) -> Vec<f64> {
         let m = self.m;
-        let mut out = vec![0.0; m];
-        for i in 0..m {
-            let row = &self.chol[i * m..i * m + i];
-            let s: f64 = row.iter().zip(&out).map(|(a, b)| a * b).sum();
-            out[i] = (v[i] - s) / self.chol[i * m + i];
-        }
-        out
+        (0..m)
+            .map(|i| {
+                let row = &self.winv[i * m..=i * m + i];
+                row.iter().zip(v).map(|(a, b)| a * b).sum()
+            })
+            .collect()
     }
 
     /// Regresses the increments `d` of the series on the increments `x` of the regressor, with
@@ -246,25 +246,24 @@ impl IncrementModel {
     /// of the block means puts into increments (W = L⁻¹, D the differencing, M the projection off
     /// the whitened intercept `o`).
     fn noise_trace(&self, o: &[f64], soo: f64) -> f64 {
-        // W D has column j = W(e_{j+1} − e_j) over the m + 1 block means: whitened unit
-        // increments. Accumulate ‖WD‖² and ‖(WD)ᵀ o‖² column by column.
+        // W D has column j = W(e_{j−1} − e_j) over the m + 1 block means (block mean j enters
+        // increment j − 1 with +1 and increment j with −1): a difference of two columns of W,
+        // which is at hand, so the whole trace costs O(m²).
         let m = self.m;
+        let w = |r: usize, c: usize| if c <= r { self.winv[r * m + c] } else { 0.0 };
         let mut total = 0.0;
         let mut proj = 0.0;
-        let mut e = vec![0.0; m];
         for j in 0..=m {
-            e.iter_mut().for_each(|v| *v = 0.0);
-            // Block mean j enters increment j − 1 with +1 and increment j with −1.
-            if j > 0 {
-                e[j - 1] = 1.0;
+            let (mut norm, mut dot) = (0.0, 0.0);
+            for (r, o_r) in o.iter().enumerate().skip(j.saturating_sub(1)) {
+                let up = if j > 0 { w(r, j - 1) } else { 0.0 };
+                let down = if j < m { w(r, j) } else { 0.0 };
+                let v = up - down;
+                norm += v * v;
+                dot += v * o_r;
             }
-            if j < m {
-                e[j] = -1.0;
-            }
-            let c = self.whiten(&e);
-            total += c.iter().map(|v| v * v).sum::<f64>();
-            let po: f64 = c.iter().zip(o).map(|(a, b)| a * b).sum();
-            proj += po * po;
+            total += norm;
+            proj += dot * dot;
         }
         total - proj / soo
     }
@@ -391,34 +390,45 @@ fn cosine_sums(p: &[f64], du: f64, m: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Cholesky factor (lower, row-major) of the symmetric Toeplitz matrix with first row `gamma`.
-/// A tiny ridge is added when rounding makes it indefinite; `None` if that does not help.
-fn cholesky_toeplitz(gamma: &[f64]) -> Option<Vec<f64>> {
+/// W = L⁻¹ (lower, row-major) for the symmetric Toeplitz matrix C = L·Lᵀ with first row `gamma`,
+/// by the Levinson–Durbin recursion in O(m²) instead of a Cholesky factorisation in O(m³): with
+/// a_i the order-i one-step prediction filter and P_i its error variance, the innovations
+/// e_i = v_i − Σ_k a_{i,k}·v_{i−k} are independent with variances P_i, so row i of W is
+/// (−a_{i,i}, …, −a_{i,1}, 1)/√P_i. A tiny ridge is added when rounding makes the matrix
+/// indefinite (an error variance ≤ 0); `None` if that does not help.
+fn inverse_cholesky_toeplitz(gamma: &[f64]) -> Option<Vec<f64>> {
     let m = gamma.len();
     if m == 0 || gamma.iter().any(|g| !g.is_finite()) || gamma[0] <= 0.0 {
         return None;
     }
-    for ridge in [0.0, 1e-10, 1e-7] {
-        let mut l = vec![0.0; m * m];
-        let mut ok = true;
-        'rows: for i in 0..m {
-            for j in 0..=i {
-                let mut s = gamma[i - j] + if i == j { ridge * gamma[0] } else { 0.0 };
-                s -= (0..j).map(|k| l[i * m + k] * l[j * m + k]).sum::<f64>();
-                if i == j {
-                    if s.is_nan() || s <= 0.0 {
-                        ok = false;
-                        break 'rows;
-                    }
-                    l[i * m + i] = s.sqrt();
-                } else {
-                    l[i * m + j] = s / l[j * m + j];
-                }
+    'ridges: for ridge in [0.0, 1e-10, 1e-7] {
+        let mut g = gamma.to_vec();
+        g[0] *= 1.0 + ridge;
+        let mut w = vec![0.0; m * m];
+        let mut a: Vec<f64> = Vec::with_capacity(m);
+        let mut next = Vec::with_capacity(m);
+        let mut p = g[0];
+        w[0] = 1.0 / p.sqrt();
+        for i in 1..m {
+            // a holds a_{i−1,1..i−1}.
+            let acc: f64 = a.iter().enumerate().map(|(k, ak)| ak * g[i - 1 - k]).sum();
+            let kappa = (g[i] - acc) / p;
+            next.clear();
+            next.extend((0..a.len()).map(|k| a[k] - kappa * a[a.len() - 1 - k]));
+            next.push(kappa);
+            std::mem::swap(&mut a, &mut next);
+            p *= 1.0 - kappa * kappa;
+            if p.is_nan() || p <= 0.0 {
+                continue 'ridges;
+            }
+            let scale = 1.0 / p.sqrt();
+            let row = &mut w[i * m..=i * m + i];
+            row[i] = scale;
+            for (k, ak) in a.iter().enumerate() {
+                row[i - 1 - k] = -ak * scale;
             }
         }
-        if ok {
-            return Some(l);
-        }
+        return Some(w);
     }
     None
 }
@@ -427,6 +437,28 @@ fn cholesky_toeplitz(gamma: &[f64]) -> Option<Vec<f64>> {
 mod tests {
     use super::*;
     use crate::sim::rng::Rng;
+
+    /// W·C·Wᵀ = I for the Toeplitz covariance of increments under a random walk plus white noise
+    /// (the case where C is worst conditioned), at the largest size used.
+    #[test]
+    fn levinson_inverts_the_cholesky_factor() {
+        let m = 512;
+        let gamma = increment_autocovariance(&|f: f64| 1e-6 + 1e-9 / (f * f), 100.0, 50, m);
+        let w = inverse_cholesky_toeplitz(&gamma).expect("positive definite");
+        for i in (0..m).step_by(37) {
+            for j in (0..m).step_by(41) {
+                // (W C Wᵀ)_ij = Σ_a Σ_b W_ia C_ab W_jb
+                let mut s = 0.0;
+                for a in 0..=i {
+                    for b in 0..=j {
+                        s += w[i * m + a] * gamma[a.abs_diff(b)] * w[j * m + b];
+                    }
+                }
+                let want = if i == j { 1.0 } else { 0.0 };
+                assert!((s - want).abs() < 1e-9, "({i},{j}): {s}");
+            }
+        }
+    }
 
     /// The recurrence agrees with cosines evaluated one by one, at the largest size used (8·512
     /// terms, lags to 512), for a spectrum spanning many decades as a random walk's does.
