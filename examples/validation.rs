@@ -207,6 +207,7 @@ fn main() {
                     FitWarning::ContradictsReadOff { term, .. } => {
                         format!("{} vs read-off", term.symbol())
                     }
+                    FitWarning::LoopLimitReached { .. } => "loop limit".to_string(),
                 });
             }
             for (i, (term, truth)) in truths.iter().enumerate() {

@@ -12,11 +12,11 @@
 use serde::Serialize;
 
 use crate::avar::{Deviations, Statistic};
-use crate::effects::{close_loop, AuxSeries, LoopConfig, LoopReport};
+use crate::effects::{close_loop, AuxSeries, LoopConfig, LoopReport, MAX_STEPS};
 use crate::estimate::{ChannelDeviations, ChannelPsd};
 use crate::model::{
     combine, compare, detect_bandwidth, fit_avar, fit_psd, Bandwidth, Combined, FitError,
-    FitOptions, NoiseFit, Sensor, TermComparison,
+    FitOptions, FitWarning, NoiseFit, Sensor, TermComparison,
 };
 
 /// One channel's fits.
@@ -118,6 +118,11 @@ pub fn analyze_channel(
             a.comparison = comparison(&a.allan, &a.spectrum);
             let final_dev = outcome.report.corrected.as_ref().map_or(dev, |(d, _)| d);
             a.combined = combine(a.allan_fit(), a.spectrum_fit(), Some(final_dev));
+        }
+        if outcome.report.steps.len() >= MAX_STEPS {
+            a.combined
+                .warnings
+                .push(FitWarning::LoopLimitReached { limit: MAX_STEPS });
         }
         a.residual_loop = Some(outcome.report);
     }

@@ -23,5 +23,5 @@ pub mod time;
 
 pub use closing::{
     close_loop, AuxSeries, Effect, ErrorFigures, LoopConfig, LoopOutcome, LoopReport, LoopStep,
-    Rejected,
+    Rejected, MAX_STEPS,
 };

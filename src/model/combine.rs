@@ -99,6 +99,9 @@ pub enum FitWarning {
         read_off: f64,
         tau_s: f64,
     },
+    /// The residual loop added as many effects as it may (`limit`) and stopped there: effects
+    /// beyond those were not looked for, so the model may still lack some.
+    LoopLimitReached { limit: usize },
 }
 
 impl FitWarning {
@@ -140,6 +143,10 @@ impl FitWarning {
                 "fitted {} = {fitted:.4e} lies above what the Allan deviation allows at τ = {tau_s:.3} s \
                  (read-off {read_off:.4e})",
                 term.symbol()
+            ),
+            FitWarning::LoopLimitReached { limit } => format!(
+                "the residual loop stopped at its limit of {limit} effects: further effects were \
+                 not looked for, and the model may still lack some"
             ),
         }
     }

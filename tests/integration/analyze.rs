@@ -296,3 +296,46 @@ fn analyze_refuses_bad_fit_flags() {
         assert!(err.contains(needle), "{args:?}: {err}");
     }
 }
+
+/// Defect: the residual loop stopped after 8 effects without a word, so a record with more lines
+/// than that was reported as explained. Ten strong lines: eight are added, and the limit is a
+/// warning in report.json, summary.md and on stderr.
+#[test]
+fn a_loop_that_reaches_its_limit_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let lines: Vec<Value> = [3.1, 5.7, 8.3, 11.9, 14.2, 17.6, 21.3, 24.8, 29.5, 33.3]
+        .iter()
+        .map(|f| serde_json::json!({ "amplitude": 3e-4, "freq_hz": f }))
+        .collect();
+    let spec = serde_json::json!({
+        "rate_hz": 100.0, "duration_s": 600.0, "seed": 91,
+        "channels": [{ "name": "gyro_x", "sensor": "gyro",
+            "noise": { "n": 4.4e-5, "b": 1.5e-5 }, "sinusoids": lines }]
+    });
+    std::fs::write(dir.path().join("spec.json"), spec.to_string()).unwrap();
+    run_ok(
+        &["simulate", "--spec", "spec.json", "-o", "lines.arrow"],
+        dir.path(),
+    );
+    let out = run_ok(
+        &["analyze", "lines.arrow", "-o", "out", "--backend", "cpu"],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/report.json")).unwrap())
+            .unwrap();
+    let channel = &report["files"][0]["analysis"][0];
+    let steps = channel["residual_loop"]["steps"].as_array().unwrap();
+    assert_eq!(steps.len(), 8, "{stderr}");
+    let warnings = channel["combined"]["warnings"].as_array().unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w["kind"] == "loop_limit_reached" && w["limit"] == 8),
+        "{warnings:?}"
+    );
+    assert!(stderr.contains("limit of 8 effects"), "{stderr}");
+    let summary = std::fs::read_to_string(dir.path().join("out/summary.md")).unwrap();
+    assert!(summary.contains("limit of 8 effects"), "{summary}");
+}
