@@ -167,7 +167,7 @@ fn figure(
     } else {
         let _ = write!(
             caption,
-            "{} channels with a value: too few for the outlier test. ",
+            "{} channels with a determined value: too few for the outlier test. ",
             st.count
         );
     }

@@ -38,9 +38,19 @@ pub struct TermValues {
     pub hi: Option<f64>,
     /// Only when there is no value: the largest coefficient compatible with the data.
     pub upper: Option<f64>,
+    /// The fit the value comes from could not tell this term from a neighbour (a K that may be
+    /// an R, see [`crate::model::CombinedTerm::ambiguous_with`]): the value is an attribution,
+    /// not a measurement of this term, and is not compared with the siblings'.
+    pub ambiguous: bool,
 }
 
 impl TermValues {
+    /// Whether the record determines the value: positive, with an interval that stays above 0,
+    /// and told from the neighbouring terms. Only such values are compared with the siblings'.
+    pub fn determined(&self) -> bool {
+        self.value.is_some_and(|v| v > 0.0) && self.lo.is_some_and(|lo| lo > 0.0) && !self.ambiguous
+    }
+
     /// The interval, when the term was estimated.
     pub fn interval(&self) -> Option<(f64, f64)> {
         Some((self.lo?, self.hi?))
@@ -52,14 +62,12 @@ impl TermValues {
     pub fn log_se(&self, confidence: f64) -> Option<f64> {
         let (v, lo, hi) = (self.value?, self.lo?, self.hi?);
         let z = crate::stats::normal_quantile((1.0 + confidence) / 2.0);
-        if !(v > 0.0 && hi >= v && z > 0.0 && z.is_finite()) {
+        // An interval reaching 0 is unbounded on the log scale: the value is not told from
+        // zero, and no standard error describes it.
+        if !(v > 0.0 && hi >= v && lo > 0.0 && z > 0.0 && z.is_finite()) {
             return None;
         }
-        Some(if lo > 0.0 {
-            (hi / lo).ln() / (2.0 * z)
-        } else {
-            (hi / v).ln() / z
-        })
+        Some((hi / lo).ln() / (2.0 * z))
     }
 }
 
@@ -189,6 +197,7 @@ fn fill_analysis(rec: &mut ChannelRecord, a: &ChannelAnalysis, units: &EffectUni
                 slot.value = Some(c.value);
                 slot.lo = Some(c.lo);
                 slot.hi = Some(c.hi);
+                slot.ambiguous = c.ambiguous_with.is_some();
             }
             None => slot.upper = upper_limit(a.allan_fit(), a.spectrum_fit(), term),
         }

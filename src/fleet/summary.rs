@@ -333,7 +333,7 @@ pub fn markdown(s: &FleetStepSummary, title: &str) -> String {
         let _ = writeln!(
             md,
             "\n## Fleet statistics\n\n\
-             | kind | term | channels with a value | median | robust σ of ln |\n|---|---|---|---|---|"
+             | kind | term | channels with a determined value | median | robust σ of ln |\n|---|---|---|---|---|"
         );
         for st in &fleet.stats {
             let (median, spread) = match st.scale {

@@ -103,6 +103,7 @@ struct Common {
     samples: UInt64Builder,
     analysed: BooleanBuilder,
     terms: Vec<[Float64Builder; 4]>,
+    ambiguous: Vec<BooleanBuilder>,
     confidence: Float64Builder,
     effects: StringBuilder,
     effects_detail: ListBuilder<StringBuilder>,
@@ -137,6 +138,7 @@ impl Common {
             terms: (0..5)
                 .map(|_| std::array::from_fn(|_| Float64Builder::new()))
                 .collect(),
+            ambiguous: (0..5).map(|_| BooleanBuilder::new()).collect(),
             confidence: Float64Builder::new(),
             effects: StringBuilder::new(),
             effects_detail: ListBuilder::new(StringBuilder::new()),
@@ -165,6 +167,9 @@ impl Common {
             b[1].append_option(t.lo);
             b[2].append_option(t.hi);
             b[3].append_option(t.upper);
+        }
+        for (b, t) in self.ambiguous.iter_mut().zip(&r.terms) {
+            b.append_value(t.ambiguous);
         }
         self.confidence.append_option(r.confidence);
         self.effects.append_value(r.effects.join(","));
@@ -201,6 +206,10 @@ impl Common {
                     .iter()
                     .zip(b.iter_mut())
                     .map(|(what, b)| s(&format!("{p}_{what}"), Arc::new(b.finish())))
+                    .chain([s(
+                        &format!("{p}_ambiguous"),
+                        Arc::new(self.ambiguous[t.index()].finish()),
+                    )])
                     .collect()
             })
             .collect();
@@ -370,6 +379,7 @@ fn records_from_batch(b: &RecordBatch, out: &mut Vec<ChannelRecord>) -> Result<(
     let samples = column::<UInt64Array>(b, "samples")?;
     let analysed = column::<BooleanArray>(b, "analysed")?;
     let mut terms: Vec<[&Float64Array; 4]> = Vec::new();
+    let mut ambiguous: Vec<&BooleanArray> = Vec::new();
     for t in Term::ALL {
         let p = term_prefix(t);
         terms.push([
@@ -378,6 +388,7 @@ fn records_from_batch(b: &RecordBatch, out: &mut Vec<ChannelRecord>) -> Result<(
             column::<Float64Array>(b, &format!("{p}_hi"))?,
             column::<Float64Array>(b, &format!("{p}_upper"))?,
         ]);
+        ambiguous.push(column::<BooleanArray>(b, &format!("{p}_ambiguous"))?);
     }
     let confidence = column::<Float64Array>(b, "confidence")?;
     let (effects, quality) = (text("effects")?, text("quality")?);
@@ -388,12 +399,13 @@ fn records_from_batch(b: &RecordBatch, out: &mut Vec<ChannelRecord>) -> Result<(
     let s = |a: &StringArray, i: usize| opt(a.is_valid(i), a.value(i).to_string());
     for i in 0..b.num_rows() {
         let mut tv = [TermValues::default(); 5];
-        for (slot, cols) in tv.iter_mut().zip(&terms) {
+        for ((slot, cols), amb) in tv.iter_mut().zip(&terms).zip(&ambiguous) {
             *slot = TermValues {
                 value: f(cols[0], i),
                 lo: f(cols[1], i),
                 hi: f(cols[2], i),
                 upper: f(cols[3], i),
+                ambiguous: amb.is_valid(i) && amb.value(i),
             };
         }
         out.push(ChannelRecord {
@@ -519,6 +531,7 @@ mod tests {
             lo: Some(3.9e-5),
             hi: Some(4.1e-5),
             upper: None,
+            ambiguous: false,
         };
         r.terms[4].upper = Some(1e-9);
         r.confidence = Some(0.6827);
