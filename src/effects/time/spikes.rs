@@ -48,8 +48,7 @@ pub struct Spikes {
     pub indices: Vec<usize>,
     /// Times of those samples (index/rate), s.
     pub times_s: Vec<f64>,
-    /// Spike value minus the local level (the mean of its neighbours that are not candidates),
-    /// per spike.
+    /// Spike value minus the local level (the median of its 15 nearest neighbours), per spike.
     pub excess: Vec<f64>,
     /// Detection threshold in units of `sigma`.
     pub threshold_sigma: f64,
@@ -114,7 +113,10 @@ pub fn find_spikes(y: &[f64], rate_hz: f64) -> Spikes {
         if candidates[i] && v.abs() > limit {
             out.indices.push(i);
             out.times_s.push(i as f64 / rate_hz);
-            out.excess.push(*v);
+            // Removal puts the sample at the median of its neighbours, whose own noise is closer
+            // to a sample's than their mean's is (the replaced samples then take less noise out
+            // of the record).
+            out.excess.push(r[i]);
             out.delta_bic += 2.0 * ln_n - (v / sigma).powi(2);
         }
     }
@@ -225,7 +227,7 @@ fn running_median_residual(y: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// Replaces each spike by its local level (the mean of the neighbours it was measured against).
+/// Replaces each spike by its local level (the median of its neighbours).
 pub fn remove_spikes(y: &mut [f64], s: &Spikes) {
     for (&i, e) in s.indices.iter().zip(&s.excess) {
         if let Some(v) = y.get_mut(i) {
