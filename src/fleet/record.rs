@@ -57,8 +57,8 @@ impl TermValues {
     }
 
     /// The standard error of ln(value) implied by the interval at two-sided probability
-    /// `confidence`: ln(hi/lo)/(2z), or from the upper half, ln(hi/value)/z, for an interval that
-    /// reaches 0; `None` without a positive value and interval.
+    /// `confidence`: ln(hi/lo)/(2z); `None` without a positive value and an interval above 0 (an
+    /// interval that reaches 0 is unbounded on the log scale).
     pub fn log_se(&self, confidence: f64) -> Option<f64> {
         let (v, lo, hi) = (self.value?, self.lo?, self.hi?);
         let z = crate::stats::normal_quantile((1.0 + confidence) / 2.0);
