@@ -12,6 +12,7 @@ pub mod estimate;
 pub mod fleet;
 pub mod gpu;
 pub mod io;
+pub mod memo;
 pub mod model;
 pub mod pipeline;
 pub mod psd;

@@ -15,7 +15,10 @@
 
 use std::f64::consts::TAU;
 
-use crate::psd::{BinnedPsd, Psd};
+use std::sync::Arc;
+
+use crate::memo::Memo;
+use crate::psd::{BinnedPsd, Psd, Window};
 
 /// Correlation matrix of the bands `keep` of `binned` (the log-binned form of `psd`); `None` when
 /// the window cannot be rebuilt from what `psd` records.
@@ -24,7 +27,6 @@ pub(crate) fn band_correlation(
     binned: &BinnedPsd,
     keep: &[usize],
 ) -> Option<Vec<Vec<f64>>> {
-    let window = psd.window.coefficients(psd.nperseg).ok()?;
     if psd.nperseg == 0
         || psd.noverlap >= psd.nperseg
         || psd.nfft < psd.nperseg
@@ -32,9 +34,8 @@ pub(crate) fn band_correlation(
     {
         return None;
     }
-    let step = psd.nperseg - psd.noverlap;
     let kmax = (4 * psd.nfft / psd.nperseg + 4).min(64);
-    let rho2 = lag_table(&window, step, psd.nfft, psd.segments, kmax);
+    let rho2 = cached_lag_table(psd, kmax)?;
     let df = psd.bin_width_hz();
     // Inclusive bin ranges of the kept bands.
     let ranges: Vec<(i64, i64)> = keep
@@ -78,6 +79,44 @@ pub(crate) fn band_correlation(
         }
     }
     Some(out)
+}
+
+/// What a lag table depends on: the window, the segmenting and the transform length.
+#[derive(Clone, PartialEq)]
+struct LagKey {
+    window: Window,
+    nperseg: usize,
+    noverlap: usize,
+    nfft: usize,
+    segments: usize,
+    kmax: usize,
+}
+
+/// [`lag_table`] for `psd`'s plan, computed once per plan. The loop fits one spectrum dozens of
+/// times (a profile over a Gauss–Markov correlation time, a resonance's f₀ and Q), and the table
+/// is O(segment length) cosines and products per lag: with hour-long segments it was half of the
+/// loop's time, all of it recomputing the same numbers.
+fn cached_lag_table(psd: &Psd, kmax: usize) -> Option<Arc<Vec<f64>>> {
+    static TABLES: Memo<LagKey, Arc<Vec<f64>>> = Memo::new(8);
+    let key = LagKey {
+        window: psd.window.clone(),
+        nperseg: psd.nperseg,
+        noverlap: psd.noverlap,
+        nfft: psd.nfft,
+        segments: psd.segments,
+        kmax,
+    };
+    TABLES.get_or(key, || {
+        let window = psd.window.coefficients(psd.nperseg).ok()?;
+        let step = psd.nperseg - psd.noverlap;
+        Some(Arc::new(lag_table(
+            &window,
+            step,
+            psd.nfft,
+            psd.segments,
+            kmax,
+        )))
+    })
 }
 
 /// Σ_d w_d·ρ²(d, k) for k = 0..=kmax: the covariance of two single-bin estimates k bins apart, up

@@ -23,7 +23,8 @@
 //! the correction). Windows with poor leakage (boxcar) have no finite σ² to speak of and should
 //! not be used on red spectra.
 
-use crate::psd::{BinnedPsd, Psd, Scaling};
+use crate::memo::Memo;
+use crate::psd::{BinnedPsd, Psd, Scaling, Window};
 
 use super::band_correlation::band_correlation;
 use super::bandwidth::LowPass;
@@ -38,16 +39,19 @@ use super::{EffectShape, FitError, FitOptions, NoiseFit, Term};
 /// 1/3 bin², 6 % for 1/f² at bin 4). From Parseval, σ² = fs²·Σ(Δw)²/(4π²·Σw²), with the window
 /// taken as zero outside the segment.
 fn leakage_spread2(psd: &Psd) -> f64 {
-    let Ok(w) = psd.window.coefficients(psd.nperseg) else {
-        return 0.0;
-    };
-    let sum_w2: f64 = w.iter().map(|v| v * v).sum();
-    let edges = w.first().map_or(0.0, |v| v * v) + w.last().map_or(0.0, |v| v * v);
-    let diff2: f64 = w.windows(2).map(|p| (p[1] - p[0]).powi(2)).sum::<f64>() + edges;
-    if sum_w2.is_nan() || sum_w2 <= 0.0 {
-        return 0.0;
-    }
-    psd.rate_hz * psd.rate_hz * diff2 / (4.0 * std::f64::consts::PI.powi(2) * sum_w2)
+    // Σ(Δw)²/Σw² per (window, length), remembered: every fit of the loop's profiles asks again,
+    // and the window takes a cosine per sample to rebuild.
+    static RATIOS: Memo<(Window, usize), f64> = Memo::new(8);
+    let ratio = RATIOS.get_or((psd.window.clone(), psd.nperseg), || {
+        let w = psd.window.coefficients(psd.nperseg).ok()?;
+        let sum_w2: f64 = w.iter().map(|v| v * v).sum();
+        let edges = w.first().map_or(0.0, |v| v * v) + w.last().map_or(0.0, |v| v * v);
+        let diff2: f64 = w.windows(2).map(|p| (p[1] - p[0]).powi(2)).sum::<f64>() + edges;
+        (sum_w2 > 0.0).then(|| diff2 / sum_w2)
+    });
+    ratio.map_or(0.0, |r| {
+        psd.rate_hz * psd.rate_hz * r / (4.0 * std::f64::consts::PI.powi(2))
+    })
 }
 
 /// Fits the IEEE terms to `binned`, the log-binned form of `psd` (which supplies the sample rate,

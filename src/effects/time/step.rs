@@ -125,10 +125,19 @@ fn scan(s: &[f64], w: usize) -> Option<Scan> {
         return None;
     }
     let sd = var.sqrt();
-    // The scan itself at every position.
-    let (k, dk) = (w..=n - w)
-        .map(|k| (k, at(k)))
-        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
+    // The scan: every (w/16)-th position, then every position within that stride of the largest.
+    // Neighbours w/16 apart are correlated by 0.91 (a step's peak loses at most 1/16 of its
+    // height between them), so the refined maximum is the scan's maximum or within a few
+    // hundredths of it, at an eighth of the work of every position for the long windows (the
+    // scans were a fifth of the loop's time on 10⁷-sample records).
+    let best = |range: &mut dyn Iterator<Item = usize>| {
+        range
+            .map(|k| (k, at(k)))
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+    };
+    let coarse = (w / 16).max(1);
+    let (k0, _) = best(&mut (w..=n - w).step_by(coarse))?;
+    let (k, dk) = best(&mut (k0.saturating_sub(coarse).max(w)..=(k0 + coarse).min(n - w)))?;
     let dk = &dk;
     let z = dk / sd;
     let nu = (n / w) as f64;
