@@ -27,6 +27,8 @@ struct Case {
     extra: serde_json::Value,
     /// The effect planted (`None`: none; any addition is then false).
     expect: Option<&'static str>,
+    /// Record length of this case, s (`None`: the run's).
+    seconds: Option<f64>,
 }
 
 fn truth() -> Coefficients {
@@ -89,12 +91,14 @@ fn main() {
             filtered: false,
             extra: json!({}),
             expect: None,
+            seconds: None,
         },
         Case {
             name: "digital low-pass, order 2 at 20 Hz",
             filtered: true,
             extra: json!({ "lowpass": { "corner_hz": 20.0, "order": 2 } }),
             expect: None,
+            seconds: None,
         },
         Case {
             name: "digital low-pass, order 4 at 30 Hz + quantisation",
@@ -102,12 +106,14 @@ fn main() {
             extra: json!({ "lowpass": { "corner_hz": 30.0, "order": 4 },
                            "noise": { "q": CoefUnit::DegPerSqrtH.to_si(0.15) * 0.1 } }),
             expect: None,
+            seconds: None,
         },
         Case {
             name: "digital low-pass, order 1 at 10 Hz",
             filtered: true,
             extra: json!({ "lowpass": { "corner_hz": 10.0, "order": 1 } }),
             expect: None,
+            seconds: None,
         },
         Case {
             name: "wandering line 12 Hz (±0.05 Hz, ±20 %, 10 s) ≈ 100× floor, low-pass order 2 at 25 Hz",
@@ -116,24 +122,35 @@ fn main() {
                 "sinusoids": [{ "amplitude": 3e-4, "freq_hz": 12.0,
                     "wander": { "freq_wander_hz": 0.05, "amplitude_wander": 0.2, "wander_tc_s": 10.0 } }] }),
             expect: Some("narrowband"),
+            seconds: None,
         },
         Case {
             name: "Gauss–Markov σ 1e-4 rad/s, Tc 60 s (longer than a 41-s Welch segment)",
             filtered: false,
             extra: json!({ "gauss_markov": [{ "sigma": 1e-4, "tc_s": 60.0 }] }),
             expect: Some("gauss_markov"),
+            seconds: None,
+        },
+        Case {
+            name: "the same Gauss–Markov process in 2-h records (120 Tc instead of 30)",
+            filtered: false,
+            extra: json!({ "gauss_markov": [{ "sigma": 1e-4, "tc_s": 60.0 }] }),
+            expect: Some("gauss_markov"),
+            seconds: Some(7200.0),
         },
         Case {
             name: "outliers: 1 % of samples ±8 white σ",
             filtered: false,
             extra: json!({ "spikes": { "count": OUTLIERS, "size": 8.0 * CoefUnit::DegPerSqrtH.to_si(0.15) * FS.sqrt() } }),
             expect: Some("spikes"),
+            seconds: None,
         },
         Case {
             name: "excursion: +10σ (10-s means) from 600 s to 900 s",
             filtered: false,
             extra: json!({ "steps": [{ "time_s": 600.0, "size": EXCURSION }, { "time_s": 900.0, "size": -EXCURSION }] }),
-            expect: Some("step"),
+            expect: Some("excursion"),
+            seconds: None,
         },
     ];
     let cfg = LoopConfig {
@@ -165,7 +182,7 @@ fn main() {
                     ch[k] = v.clone();
                 }
             }
-            let spec = json!({ "rate_hz": FS, "duration_s": seconds, "seed": FIRST_SEED + s, "channels": [ch] });
+            let spec = json!({ "rate_hz": FS, "duration_s": case.seconds.unwrap_or(seconds), "seed": FIRST_SEED + s, "channels": [ch] });
             let spec: SimSpec = serde_json::from_value(spec).unwrap();
             let y = simulate(&spec).unwrap().channels.remove(0).samples;
             let Some(o) = close_loop(&y, FS, &[], &cfg, None) else {

@@ -5,11 +5,12 @@
 //! lowest ΔBIC below [`ADMIT_BIC`] (−6) is taken:
 //! - time-domain effects: spikes and a bias step ([`super::time`]), coupling to each aux channel
 //!   (temperature) and a drift shape (settling, curvature), both regressed under the fitted noise
-//!   model ([`super::slow`]), and a sinusoid at each line the raw spectrum shows over the model
+//!   model ([`super::slow`]), an excursion (the mean leaving and coming back, every box of blocks
+//!   regressed under the same model: [`super::excursion`]), and a sinusoid at each line the raw spectrum shows over the model
 //!   ([`super::lines`]); they are removed from the series, and the spectrum and the Allan variance
 //!   are recomputed (on the CPU) and refitted. Their ΔBIC is the time-domain one the detectors
-//!   report (an honest effective sample count, search-corrected); a coupling or a drift is
-//!   proposed only when its family-wise p-value is below [`DETECTION_P`] as well;
+//!   report (an honest effective sample count, search-corrected); a coupling, a drift or an
+//!   excursion is proposed only when its family-wise p-value is below [`DETECTION_P`] as well;
 //! - stochastic effects ([`super::shapes`]): a first-order Gauss–Markov process (profiled over its
 //!   correlation time) and a resonance (at an excess too wide to be a line); they enter both fits
 //!   as one more column fitted with the base terms. Their ΔBIC is the sum over the two domains of
@@ -32,6 +33,7 @@ use crate::model::{
 };
 use crate::psd::{log_bin, welch, BinnedPsd, Psd, WelchConfig};
 
+use super::excursion::{excursion_under_model, remove_excursion, Excursion};
 use super::lines::{find_excess, Excess};
 use super::residuals::{diagnose, Diagnostics};
 use super::shapes::{GaussMarkov1, Resonance};
@@ -100,6 +102,8 @@ pub enum Effect {
     Spikes(Spikes),
     /// A bias step, removed.
     Step(Step),
+    /// The mean leaving and coming back (a step and its return), removed.
+    Excursion(Excursion),
     /// A line with a width (a wandering line), measured and removed.
     Narrowband(NarrowBand),
 }
@@ -115,6 +119,7 @@ impl Effect {
             Effect::Drift(_) => "drift",
             Effect::Spikes(_) => "spikes",
             Effect::Step(_) => "step",
+            Effect::Excursion(_) => "excursion",
             Effect::Narrowband(_) => "narrowband",
         }
     }
@@ -289,11 +294,19 @@ struct Candidate {
 
 impl Candidate {
     /// Why the candidate may not be added whatever its ΔBIC: a slow effect whose family-wise
-    /// p-value is not below [`DETECTION_P`].
+    /// p-value is not below [`DETECTION_P`], or an excursion that a single step explains nearly
+    /// as well.
     fn barred(&self) -> Option<String> {
         let p = match &self.effect {
             Effect::Coupling { fit, .. } => fit.p_value,
             Effect::Drift(d) => d.p_value,
+            Effect::Excursion(e) if !e.is_not_a_step() => {
+                return Some(format!(
+                    "not proposed: a single step explains it nearly as well (t² {:.1} over the best step's, below the {:.1} a second position costs)",
+                    e.over_step_t2, e.step_price_t2
+                ))
+            }
+            Effect::Excursion(e) => e.p_value,
             _ => return None,
         };
         (p.is_nan() || p >= DETECTION_P)
@@ -726,6 +739,26 @@ fn slow_candidates(
             ),
             effect: Effect::Drift(d),
             apply: Apply::Series(Box::new(move |y| remove_drift(y, fs, &s))),
+        });
+    }
+    let estimate = |density: &dyn Fn(f64) -> f64| excursion_under_model(y, fs, density, p);
+    if let Some(first) = estimate(&density) {
+        let e = if first.p_value < REFINE_P {
+            refined(state, fs, cfg, first, &estimate, &|v, e| {
+                remove_excursion(v, e)
+            })
+        } else {
+            first
+        };
+        let s = e.clone();
+        out.push(Candidate {
+            delta_bic: e.delta_bic,
+            evidence: format!(
+                "time series: the mean leaves and returns, {:.1}–{:.1} s (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over {} boxes)",
+                e.start_s, e.end_s, e.z, e.increments, e.block_s, e.p_value, e.boxes
+            ),
+            effect: Effect::Excursion(e),
+            apply: Apply::Series(Box::new(move |y| remove_excursion(y, &s))),
         });
     }
     out

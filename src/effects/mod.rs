@@ -7,6 +7,7 @@
 //! - [`time`]: effects that live in the time series (coupling to an aux channel, spikes, bias
 //!   steps, sinusoid regression, split-record stationarity).
 pub mod closing;
+pub mod excursion;
 pub mod lines;
 pub mod regression;
 pub mod residuals;

@@ -105,6 +105,19 @@ pub struct IncrementModel {
     ones: Vec<f64>,
 }
 
+/// The result of [`IncrementModel::best_box`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoxScan {
+    /// Increments of the rise and of the fall.
+    pub rise: usize,
+    pub fall: usize,
+    pub gls: Gls,
+    /// Boxes tried.
+    pub tried: usize,
+    /// The largest t² of a single step (a rise that stays).
+    pub step_t2: f64,
+}
+
 /// Block-mean increments whitened by an [`IncrementModel`].
 #[derive(Debug, Clone)]
 pub struct Whitened(Vec<f64>);
@@ -239,6 +252,97 @@ impl IncrementModel {
             dof,
             scale,
             reliability,
+        })
+    }
+
+    /// The best box regressor of the whitened increments `u`: of every x = e_a − e_b (a rise at
+    /// increment a and a fall at increment b, b − a ≥ `min_len`: the block means a + 1 … b shifted
+    /// by one amount), the one whose GLS t (with the intercept) is largest in magnitude; and the
+    /// best single step x = e_a (a shift that stays), to compare with. With g = Wᵀ(W1), h = Wᵀu
+    /// and G = WᵀW every box's normal equations are sums of three entries of these, so all m²/2
+    /// boxes cost O(m³/6) once (G) plus O(1) each.
+    pub fn best_box(&self, u: &Whitened, min_len: usize) -> Option<BoxScan> {
+        let m = self.m;
+        let u = &u.0;
+        if u.len() != m || m < min_len + 3 {
+            return None;
+        }
+        let w = &self.winv;
+        let o = &self.ones;
+        // Column sums against o and u, and the Gram matrix of W's columns (upper triangle).
+        let mut g = vec![0.0; m];
+        let mut h = vec![0.0; m];
+        let mut gram = vec![0.0; m * m];
+        for r in 0..m {
+            let row = &w[r * m..=r * m + r];
+            for (j, wj) in row.iter().enumerate() {
+                g[j] += wj * o[r];
+                h[j] += wj * u[r];
+                let gj = &mut gram[j * m..j * m + r + 1];
+                for (k, wk) in row.iter().enumerate().skip(j) {
+                    gj[k] += wj * wk;
+                }
+            }
+        }
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(p, q)| p * q).sum::<f64>();
+        let (soo, sou, suu) = (dot(o, o), dot(o, u), dot(u, u));
+        let dof = (m - 2) as f64;
+        // x = e_a − e_b, or e_a alone when b is None.
+        let fit = |a: usize, b: Option<usize>| -> Option<Gls> {
+            let (sow, swu, sww) = match b {
+                Some(b) => (
+                    g[a] - g[b],
+                    h[a] - h[b],
+                    gram[a * m + a] + gram[b * m + b] - 2.0 * gram[a * m + b],
+                ),
+                None => (g[a], h[a], gram[a * m + a]),
+            };
+            let det = soo * sww - sow * sow;
+            if !det.is_finite() || det <= 1e-12 * soo * sww {
+                return None;
+            }
+            let beta = (soo * swu - sow * sou) / det;
+            let icpt = (sww * sou - sow * swu) / det;
+            let rss = (suu - icpt * sou - beta * swu).max(0.0);
+            let scale = rss / dof;
+            let se = (scale * soo / det).sqrt();
+            let t = if se > 0.0 { beta / se } else { 0.0 };
+            Some(Gls {
+                beta,
+                se,
+                t,
+                p: if se > 0.0 {
+                    2.0 * t_sf(t.abs(), dof)
+                } else {
+                    1.0
+                },
+                dof,
+                scale,
+                reliability: 1.0,
+            })
+        };
+        let mut best: Option<(usize, usize, Gls)> = None;
+        let mut step_t2: f64 = 0.0;
+        let mut tried = 0;
+        for a in 0..m {
+            if let Some(f) = fit(a, None) {
+                step_t2 = step_t2.max(f.t * f.t);
+            }
+            for b in a + min_len..m {
+                tried += 1;
+                if let Some(f) = fit(a, Some(b)) {
+                    if best.is_none_or(|(_, _, x)| f.t.abs() > x.t.abs()) {
+                        best = Some((a, b, f));
+                    }
+                }
+            }
+        }
+        best.map(|(rise, fall, gls)| BoxScan {
+            rise,
+            fall,
+            gls,
+            tried,
+            step_t2,
         })
     }
 

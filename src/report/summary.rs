@@ -442,6 +442,12 @@ pub fn effect_line(e: &Effect, units: &EffectUnits) -> String {
             s.time_s,
             v.interval(s.size, s.lo, s.hi)
         ),
+        Effect::Excursion(e) => format!(
+            "excursion from {:.1} s to {:.1} s of {}",
+            e.start_s,
+            e.end_s,
+            v.interval(e.size, e.lo, e.hi)
+        ),
     }
 }
 
