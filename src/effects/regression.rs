@@ -311,11 +311,8 @@ impl IncrementModel {
                 beta,
                 se,
                 t,
-                p: if se > 0.0 {
-                    2.0 * t_sf(t.abs(), dof)
-                } else {
-                    1.0
-                },
+                // Computed for the best box only: a Student tail per box was most of the scan.
+                p: 1.0,
                 dof,
                 scale,
                 reliability: 1.0,
@@ -337,12 +334,17 @@ impl IncrementModel {
                 }
             }
         }
-        best.map(|(rise, fall, gls)| BoxScan {
-            rise,
-            fall,
-            gls,
-            tried,
-            step_t2,
+        best.map(|(rise, fall, mut gls)| {
+            if gls.se > 0.0 {
+                gls.p = 2.0 * t_sf(gls.t.abs(), dof);
+            }
+            BoxScan {
+                rise,
+                fall,
+                gls,
+                tried,
+                step_t2,
+            }
         })
     }
 
