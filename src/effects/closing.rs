@@ -33,11 +33,14 @@ use crate::model::{
 };
 use crate::psd::{log_bin, welch, BinnedPsd, Psd, WelchConfig};
 
-use super::excursion::{excursion_under_model, remove_excursion, Excursion};
+use super::excursion::{excursion_in, excursion_under_model, remove_excursion, Excursion};
 use super::lines::{find_excess, Excess};
+use super::regression::IncrementModel;
 use super::residuals::{diagnose, Diagnostics};
 use super::shapes::{GaussMarkov1, Resonance};
-use super::slow::{coupling_under_model, drift_under_model, remove_drift, Drift, DETECTION_P};
+use super::slow::{
+    coupling_under_model, drift_in, drift_under_model, remove_drift, Drift, DETECTION_P,
+};
 use super::time::stats::norm_isf;
 use super::time::{
     find_spikes, find_step, fit_coupling, fit_sinusoid, measure_narrowband, remove_coupling,
@@ -300,7 +303,7 @@ impl Candidate {
         let p = match &self.effect {
             Effect::Coupling { fit, .. } => fit.p_value,
             Effect::Drift(d) => d.p_value,
-            Effect::Excursion(e) if !e.is_not_a_step() => {
+            Effect::Excursion(e) if !e.beats_step() => {
                 return Some(format!(
                     "not proposed: a single step explains it nearly as well (t² {:.1} over the best step's, below the {:.1} a second position costs)",
                     e.over_step_t2, e.step_price_t2
@@ -648,16 +651,22 @@ fn allan_without(
 /// A noise density, one-sided, units²/Hz.
 type Density<'a> = &'a dyn Fn(f64) -> f64;
 
-/// Feasible GLS, one pass: `estimate` (a slow effect under a noise density) again under the
-/// Allan fit of the series with `first` removed by `remove`; `first` where that fails.
+/// Feasible GLS, one pass: when the first estimate is `promising` (its p-value below
+/// [`REFINE_P`], or that times its family), `estimate` (a slow effect under a noise density) again
+/// under the Allan fit of the series with `first` removed by `remove`; `first` otherwise or where
+/// that fails.
 fn refined<T>(
     state: &State,
     fs: f64,
     cfg: &LoopConfig,
     first: T,
+    promising: bool,
     estimate: &dyn Fn(Density<'_>) -> Option<T>,
     remove: &dyn Fn(&mut Vec<f64>, &T),
 ) -> T {
+    if !promising {
+        return first;
+    }
     allan_without(state, fs, cfg, &|v: &mut Vec<f64>| remove(v, &first))
         .and_then(|fit| estimate(&noise_density(&fit, state.stochastic.as_ref(), fs)))
         .unwrap_or(first)
@@ -693,13 +702,10 @@ fn slow_candidates(
         let Some(first) = estimate(&density) else {
             continue;
         };
-        let c = if first.p_value < REFINE_P * family as f64 {
-            refined(state, fs, cfg, first, &estimate, &|v, c| {
-                remove_coupling(v, a.samples, c)
-            })
-        } else {
-            first
-        };
+        let promising = first.p_value < REFINE_P * family as f64;
+        let c = refined(state, fs, cfg, first, promising, &estimate, &|v, c| {
+            remove_coupling(v, a.samples, c)
+        });
         // The model-free test on the same data, for the reader: it needs no noise model but
         // weighs the increments equally, so it is weaker on a smooth aux.
         let free = fit_coupling(y, a.samples, fs, p).map_or(String::new(), |f| {
@@ -721,15 +727,18 @@ fn slow_candidates(
             })),
         });
     }
+    // The drift and excursion searches regress on the same whitened increments: whitened once.
+    let increments = IncrementModel::new(&density, fs, y.len())
+        .and_then(|m| Some((m.whitened(&m.increments(y))?, m)));
     let estimate = |density: &dyn Fn(f64) -> f64| drift_under_model(y, fs, density, p);
-    if let Some(first) = estimate(&density) {
-        let d = if first.p_value < REFINE_P {
-            refined(state, fs, cfg, first, &estimate, &|v, d| {
-                remove_drift(v, fs, d)
-            })
-        } else {
-            first
-        };
+    let first = increments
+        .as_ref()
+        .and_then(|(u, m)| drift_in(y, fs, m, u, p));
+    if let Some(first) = first {
+        let promising = first.p_value < REFINE_P;
+        let d = refined(state, fs, cfg, first, promising, &estimate, &|v, d| {
+            remove_drift(v, fs, d)
+        });
         let s = d.clone();
         out.push(Candidate {
             delta_bic: d.delta_bic,
@@ -742,14 +751,14 @@ fn slow_candidates(
         });
     }
     let estimate = |density: &dyn Fn(f64) -> f64| excursion_under_model(y, fs, density, p);
-    if let Some(first) = estimate(&density) {
-        let e = if first.p_value < REFINE_P {
-            refined(state, fs, cfg, first, &estimate, &|v, e| {
-                remove_excursion(v, e)
-            })
-        } else {
-            first
-        };
+    let first = increments
+        .as_ref()
+        .and_then(|(u, m)| excursion_in(y, fs, m, u, p));
+    if let Some(first) = first {
+        let promising = first.p_value < REFINE_P;
+        let e = refined(state, fs, cfg, first, promising, &estimate, &|v, e| {
+            remove_excursion(v, e)
+        });
         let s = e.clone();
         out.push(Candidate {
             delta_bic: e.delta_bic,

@@ -26,7 +26,7 @@
 //! fraction), with its Student-t interval. An excursion shorter than two blocks (7 s of a 30-min
 //! record) is not looked for here: the step scan's short windows see its two edges.
 
-use super::regression::IncrementModel;
+use super::regression::{IncrementModel, Whitened};
 use super::slow::DETECTION_P;
 use super::time::stats::{delta_bic, t_two_sided};
 
@@ -69,11 +69,11 @@ impl Excursion {
     /// Whether the family-wise p-value passes the slow effects' bar and the box explains more
     /// than a single step would.
     pub fn detected(&self) -> bool {
-        self.p_value < DETECTION_P && self.is_not_a_step()
+        self.p_value < DETECTION_P && self.beats_step()
     }
 
     /// Whether the box beats the best single step by the price of its second position.
-    pub fn is_not_a_step(&self) -> bool {
+    pub fn beats_step(&self) -> bool {
         self.over_step_t2 > self.step_price_t2
     }
 }
@@ -87,10 +87,20 @@ pub fn excursion_under_model(
     density: &dyn Fn(f64) -> f64,
     p: f64,
 ) -> Option<Excursion> {
-    let n = y.len();
-    let model = IncrementModel::new(density, fs, n)?;
+    let model = IncrementModel::new(density, fs, y.len())?;
     let u = model.whitened(&model.increments(y))?;
-    let found = model.best_box(&u, MIN_BLOCKS)?;
+    excursion_in(y, fs, &model, &u, p)
+}
+
+/// [`excursion_under_model`] with the increment model and the whitened increments of `y` given.
+pub fn excursion_in(
+    y: &[f64],
+    fs: f64,
+    model: &IncrementModel,
+    u: &Whitened,
+    p: f64,
+) -> Option<Excursion> {
+    let found = model.best_box(u, MIN_BLOCKS)?;
     let (a, b, scan, boxes) = (found.rise, found.fall, found.gls, found.tried);
     let block = model.block;
     let sign = scan.beta.signum();
@@ -106,7 +116,7 @@ pub fn excursion_under_model(
         return None;
     }
     let x = box_increments(start, end, block, model.m);
-    let gls = model.regress_whitened(&u, &x, 0.0).unwrap_or(scan);
+    let gls = model.regress_whitened(u, &x, 0.0).unwrap_or(scan);
     let p_value = (scan.p * boxes as f64).min(1.0);
     let half = t_two_sided(p, gls.dof) * gls.se;
     Some(Excursion {
@@ -154,8 +164,9 @@ fn place_edge(y: &[f64], near: usize, reach: usize, half: usize, sign: f64) -> u
         sign * (mean(k, (k + half).min(top)) - mean(k.saturating_sub(half).max(base), k))
     };
     (lo..=hi)
-        .max_by(|&i, &j| jump(i).total_cmp(&jump(j)))
-        .unwrap_or(near)
+        .map(|k| (k, jump(k)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(near, |(k, _)| k)
 }
 
 /// Increments of the block means (blocks of `block` samples, m + 1 of them) of the indicator of
@@ -227,7 +238,7 @@ mod tests {
             }
             let e = excursion_under_model(&y, FS, &white, 0.95).unwrap();
             assert!(
-                e.p_value < 1e-6 && !e.is_not_a_step() && !e.detected(),
+                e.p_value < 1e-6 && !e.beats_step() && !e.detected(),
                 "{e:?}"
             );
         }

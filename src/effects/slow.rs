@@ -18,7 +18,9 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::regression::{regress_series, white_noise_variance, Gls, IncrementModel, Regression};
+use super::regression::{
+    regress_series, white_noise_variance, Gls, IncrementModel, Regression, Whitened,
+};
 use super::time::stats::{delta_bic, mean_var, norm_isf, t_two_sided};
 use super::time::Coupling;
 
@@ -153,15 +155,20 @@ pub fn drift_under_model(
     density: &dyn Fn(f64) -> f64,
     p: f64,
 ) -> Option<Drift> {
-    let n = y.len();
-    let duration = n as f64 / fs;
     // A noiseless regressor: one blocking (the finest) for all shapes.
-    let model = IncrementModel::new(density, fs, n)?;
+    let model = IncrementModel::new(density, fs, y.len())?;
     let d = model.whitened(&model.increments(y))?;
+    drift_in(y, fs, &model, &d, p)
+}
+
+/// [`drift_under_model`] with the increment model and the whitened increments of `y` given
+/// (the loop whitens once for the drift and the excursion searches).
+pub fn drift_in(y: &[f64], fs: f64, model: &IncrementModel, d: &Whitened, p: f64) -> Option<Drift> {
+    let duration = y.len() as f64 / fs;
     let fit = |shape: DriftShape| {
         let means = shape_block_means(shape, fs, model.block, model.m + 1, duration);
         let x: Vec<f64> = means.windows(2).map(|w| w[1] - w[0]).collect();
-        let gls = model.regress_whitened(&d, &x, 0.0)?;
+        let gls = model.regress_whitened(d, &x, 0.0)?;
         Some((shape, means, gls))
     };
     let exponential = |tc_s: f64| DriftShape::Exponential { tc_s };
