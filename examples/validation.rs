@@ -146,6 +146,14 @@ fn main() {
             seconds: None,
         },
         Case {
+            name: "outliers on a filtered sensor: 1 % of samples ±8 white σ, low-pass order 2 at 20 Hz",
+            filtered: true,
+            extra: json!({ "lowpass": { "corner_hz": 20.0, "order": 2 },
+                "spikes": { "count": OUTLIERS, "size": 8.0 * CoefUnit::DegPerSqrtH.to_si(0.15) * FS.sqrt() } }),
+            expect: Some("spikes"),
+            seconds: None,
+        },
+        Case {
             name: "excursion: +10σ (10-s means) from 600 s to 900 s",
             filtered: false,
             extra: json!({ "steps": [{ "time_s": 600.0, "size": EXCURSION }, { "time_s": 900.0, "size": -EXCURSION }] }),
@@ -169,7 +177,14 @@ fn main() {
     println!("Simulated gyro N = 0.15 °/√h, B = 3 °/h, K = 20 °/h/√h at {FS} Hz, {seconds} s per record, {seeds} seeds per case (from {FIRST_SEED}).\n");
     println!("| case | filter found | planted effect found | records with an effect added | warnings | N ratio (median) | N coverage | B ratio | B coverage | B kept | K ratio | K coverage | K kept |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
-    for case in &cases {
+    // `VALIDATION_CASES=outliers,excursion` runs only the cases whose names contain one of those.
+    let only: Vec<String> = std::env::var("VALIDATION_CASES")
+        .map(|v| v.split(',').map(str::to_owned).collect())
+        .unwrap_or_default();
+    for case in cases
+        .iter()
+        .filter(|c| only.is_empty() || only.iter().any(|o| c.name.contains(o.as_str())))
+    {
         let mut tally = Tally::default();
         for s in 0..seeds {
             let mut ch = json!({ "name": "g", "sensor": "gyro", "noise": t });

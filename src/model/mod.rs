@@ -66,7 +66,7 @@ mod effect;
 mod error;
 mod fit;
 mod interval;
-mod linalg;
+pub(crate) mod linalg;
 mod nnls;
 mod options;
 mod psd_fit;

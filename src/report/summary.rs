@@ -601,6 +601,7 @@ mod tests {
                 sigma: 1.0,
                 variance_share: 0.01,
                 delta_bic: -10.0,
+                removal: vec![1.0; n],
             })
         };
         let u = units(Unit::RadPerS);

@@ -36,6 +36,7 @@
 
 use rayon::prelude::*;
 
+use super::imputation::conditional_fill;
 use super::stats::{mean_var, norm_isf};
 
 /// Probability of one or more false detections in a whole spike-free record.
@@ -60,6 +61,11 @@ pub struct Spikes {
     pub variance_share: f64,
     /// 0 when none is found.
     pub delta_bic: f64,
+    /// What removal subtracts from each spike: the sample minus a conditional draw given its
+    /// clean neighbours ([`conditional_fill`]), or `excess` where the record is too short or
+    /// constant for one.
+    #[serde(skip)]
+    pub removal: Vec<f64>,
 }
 
 /// Finds spikes in `y`. Fewer than 16 samples, or a locally constant series: none.
@@ -73,6 +79,7 @@ pub fn find_spikes(y: &[f64], rate_hz: f64) -> Spikes {
         sigma: 0.0,
         variance_share: 0.0,
         delta_bic: 0.0,
+        removal: vec![],
     };
     if n < NEIGHBOURS + 1 {
         return out;
@@ -115,13 +122,12 @@ pub fn find_spikes(y: &[f64], rate_hz: f64) -> Spikes {
         if candidates[i] && v.abs() > limit {
             out.indices.push(i);
             out.times_s.push(i as f64 / rate_hz);
-            // Removal puts the sample at the median of its neighbours, whose own noise is closer
-            // to a sample's than their mean's is (the replaced samples then take less noise out
-            // of the record).
             out.excess.push(r[i]);
             out.delta_bic += 2.0 * ln_n - (v / sigma).powi(2);
         }
     }
+    out.removal =
+        conditional_fill(y, &out.indices, &candidates).unwrap_or_else(|| out.excess.clone());
     let (_, var) = mean_var(y);
     if var > 0.0 {
         out.variance_share =
@@ -260,9 +266,10 @@ fn running_median_residual(y: &[f64]) -> Vec<f64> {
     out
 }
 
-/// Replaces each spike by its local level (the median of its neighbours).
+/// Replaces each spike by a draw from its distribution given its clean neighbours (see
+/// [`super::imputation`]: the local level alone would take the sample's noise out of the record).
 pub fn remove_spikes(y: &mut [f64], s: &Spikes) {
-    for (&i, e) in s.indices.iter().zip(&s.excess) {
+    for (&i, e) in s.indices.iter().zip(&s.removal) {
         if let Some(v) = y.get_mut(i) {
             *v -= e;
         }
@@ -326,6 +333,33 @@ mod tests {
                 .any(|i| truth.contains(i))
         };
         (found, truth.len(), clean)
+    }
+
+    /// Removal keeps the record's noise: with 1 % of a white record replaced by 10σ spikes and
+    /// removed again, the variance about the mean is the spike-free record's within 0.2 % (the
+    /// replaced samples differ by chance alone, ≈ 0.05 % rms). Replacing them by the median of
+    /// their neighbours took 0.9 % of the variance out.
+    #[test]
+    fn removal_keeps_the_noise_of_the_record() {
+        let n = 200_000;
+        let clean = crate::sim::rng::Rng::new(77).gauss_vec(n);
+        let mut y = clean.clone();
+        for i in (50..n - 50).step_by(100) {
+            y[i] += if i % 200 == 50 { 10.0 } else { -10.0 };
+        }
+        let s = find_spikes(&y, FS);
+        assert!(s.indices.len() >= 1990, "{}", s.indices.len());
+        remove_spikes(&mut y, &s);
+        let var = |v: &[f64]| mean_var(v).1;
+        let ratio = var(&y) / var(&clean);
+        let mut median_filled = y.clone();
+        for (&i, (e, r)) in s.indices.iter().zip(s.excess.iter().zip(&s.removal)) {
+            median_filled[i] += r - e;
+        }
+        let median_ratio = var(&median_filled) / var(&clean);
+        println!("variance after removal / spike-free: {ratio:.5} (median fill {median_ratio:.5})");
+        assert!((ratio - 1.0).abs() < 2e-3, "{ratio}");
+        assert!(median_ratio < 0.995, "{median_ratio}");
     }
 
     #[test]
