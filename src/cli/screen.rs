@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use clap::{Args, Parser};
 use imunoise::fleet::{
-    self, collect_inputs, fleet_step, BatchConfig, FileOutcome, Input, Layout, Lock, Observer,
-    PlotPolicy, Shard, Spec, Status,
+    self, collect_inputs, fleet_step, plot_after_fleet, BatchConfig, FailOn, FileOutcome, Input,
+    Layout, Lock, Observer, PlotPolicy, Shard, Spec, Status,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
@@ -73,10 +73,15 @@ pub struct FleetFlags {
     #[arg(short, long, default_value = "imunoise-screen", value_name = "DIR")]
     pub out: PathBuf,
 
-    /// Per-file plots of `analyze` in DIR/plots/<key>/: none, failures (files with a channel
-    /// that fails a limit or has a quality verdict), or all.
+    /// Per-file plots of `analyze` in DIR/plots/<key>/: none, failures (files with a flagged
+    /// channel: a limit failure, a quality verdict, a fleet outlier or an unusual effect), or all.
     #[arg(long, default_value = "none", value_name = "WHICH")]
     pub plots: String,
+
+    /// Exit with code 3 when a channel of this shard's inputs fails a limit (fail), is flagged
+    /// for any reason (flagged), or never. Input errors (exit 1) take precedence.
+    #[arg(long, default_value = "fail", value_name = "WHEN")]
+    pub fail_on: String,
 
     /// Files analysed at the same time (each file's analysis is itself parallel over channels);
     /// memory grows with this number, not with the number of files.
@@ -113,6 +118,7 @@ struct ScreenJob {
     spec: Spec,
     layout: Layout,
     plots: PlotPolicy,
+    fail_on: FailOn,
     threads: usize,
     retry_errors: bool,
     quiet: bool,
@@ -140,6 +146,10 @@ fn job(a: ScreenArgs) -> Result<ScreenJob, UsageError> {
         None => Shard::ALL,
     };
     let plots: PlotPolicy = f.plots.parse().map_err(|e| usage(format!("--plots {e}")))?;
+    let fail_on: FailOn = f
+        .fail_on
+        .parse()
+        .map_err(|e| usage(format!("--fail-on {e}")))?;
     if f.threads == 0 {
         return Err(usage("--threads: must be at least 1"));
     }
@@ -184,6 +194,7 @@ fn job(a: ScreenArgs) -> Result<ScreenJob, UsageError> {
         spec,
         layout: Layout::new(f.out),
         plots,
+        fail_on,
         threads: f.threads,
         retry_errors: f.retry_errors,
         quiet: f.quiet,
@@ -391,7 +402,20 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
         &title,
     )
     .map_err(|e| e.to_string())?;
+    // Plots the fleet step decides (outliers, unusual effects) while the lock keeps other
+    // shards' fleet steps out.
+    let plotted = plot_after_fleet(
+        layout,
+        &fleet,
+        job.plots,
+        &job.analysis.inputs,
+        &job.analysis.work,
+        backend.as_ref(),
+    );
     drop(fleet_lock);
+    for (key, e) in &plotted.failed {
+        eprintln!("imunoise: plots of {key} not written: {e}");
+    }
     if !quiet {
         let rows = &fleet.fleet.rows;
         let flagged = rows.iter().filter(|r| r.flagged).count();
@@ -419,8 +443,40 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
             layout.html().display()
         );
     }
+    if !quiet && (!plotted.written.is_empty() || plotted.removed > 0) {
+        eprintln!(
+            "plots: {} drawn after the fleet step ({}), {} folders of former inputs removed",
+            plotted.written.len(),
+            plotted.written.join(", "),
+            plotted.removed
+        );
+    }
+    let mine: std::collections::BTreeSet<&str> = inputs
+        .iter()
+        .filter(|i| i.in_shard(job.shard))
+        .map(|i| i.key.as_str())
+        .collect();
+    let matched = fleet
+        .fleet
+        .rows
+        .iter()
+        .filter(|r| mine.contains(r.record.key.as_str()) && job.fail_on.matches(r))
+        .count();
+    if !quiet && matched > 0 {
+        eprintln!(
+            "exit {}: {matched} channel{} {}",
+            FailOn::EXIT_CODE,
+            if matched == 1 { "" } else { "s" },
+            match job.fail_on {
+                FailOn::Fail => "fail a limit of the specification (--fail-on fail)",
+                _ => "flagged (--fail-on flagged)",
+            }
+        );
+    }
     Ok(if batch.failed > 0 {
         EXIT_SOME_FAILED
+    } else if matched > 0 {
+        FailOn::EXIT_CODE
     } else {
         EXIT_OK
     })

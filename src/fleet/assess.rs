@@ -72,6 +72,52 @@ pub struct FleetRow {
     pub reasons: Vec<String>,
 }
 
+impl FleetRow {
+    /// Whether some term fails its limit (the interval wholly above it).
+    pub fn fails_spec(&self) -> bool {
+        self.terms.iter().any(|t| t.verdict == Some(Verdict::Fail))
+    }
+}
+
+/// Which channels make `screen` exit with [`FailOn::EXIT_CODE`] (a nightly job or CI gate reads
+/// the exit code, not the table).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FailOn {
+    /// A channel that fails a limit of the specification.
+    #[default]
+    Fail,
+    /// Any flagged channel: a limit failure, an outlier, an unusual effect, a quality verdict.
+    Flagged,
+    /// Never: the exit code says only whether every input was read and analysed.
+    Never,
+}
+
+impl FailOn {
+    /// The exit code of a screen whose inputs were all analysed but some channel matched.
+    pub const EXIT_CODE: i32 = 3;
+
+    /// Whether `row` counts.
+    pub fn matches(self, row: &FleetRow) -> bool {
+        match self {
+            FailOn::Fail => row.fails_spec(),
+            FailOn::Flagged => row.flagged,
+            FailOn::Never => false,
+        }
+    }
+}
+
+impl std::str::FromStr for FailOn {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim() {
+            "fail" => Ok(FailOn::Fail),
+            "flagged" => Ok(FailOn::Flagged),
+            "never" => Ok(FailOn::Never),
+            other => Err(format!("{other:?}: expected fail, flagged or never")),
+        }
+    }
+}
+
 /// The fleet statistics of one term of one sensor kind.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TermStats {

@@ -25,6 +25,7 @@ use crate::pipeline::{self, Inputs, Silent, Work};
 use super::hash::file_identity;
 use super::inputs::{Input, Shard};
 use super::layout::{adopt, prune, Layout, Manifest};
+use super::plots::{remove_file_plots, write_file_plots};
 use super::record::{ChannelRecord, Status};
 use super::spec::Spec;
 use super::table::{read_part, read_part_meta, write_part, PartMeta};
@@ -36,8 +37,9 @@ use super::{ScreenError, SCHEMA_VERSION};
 pub enum PlotPolicy {
     #[default]
     None,
-    /// Files with a channel that fails a limit of the specification or has a quality verdict.
-    /// (Outliers are known only after the fleet step, when the analysis is gone: not included.)
+    /// Files with a flagged channel: a limit failure or a quality verdict (plotted by the batch),
+    /// a fleet outlier or an unusual effect (known in the fleet step, which analyses those files
+    /// again: [`super::plots::plot_after_fleet`]).
     Failures,
     All,
 }
@@ -247,16 +249,14 @@ fn process(
                     PlotPolicy::All => true,
                     PlotPolicy::Failures => records.iter().any(|r| fails(r, cfg.spec)),
                 };
-                if plot {
-                    let dir = cfg.layout.plots(&input.key);
-                    let written = std::fs::create_dir_all(&dir)
-                        .map_err(|e| e.to_string())
-                        .and_then(|_| {
-                            crate::report::write_plots(&dir, &result).map_err(|e| e.to_string())
-                        });
-                    if let Err(e) = written {
-                        notes.push(format!("plots not written: {e}"));
-                    }
+                // Plots of an earlier version of this file are not this result's.
+                let drawn = if plot {
+                    write_file_plots(cfg.layout, &input.key, &result)
+                } else {
+                    remove_file_plots(cfg.layout, &input.key)
+                };
+                if let Err(e) = drawn {
+                    notes.push(format!("plots not written: {e}"));
                 }
                 // The spectra, deviations and fits go here, before the next file.
                 drop(result);

@@ -25,6 +25,8 @@
 //! - [`layout`]: where everything lives in the output folder (hive-style `results/shard=K/`),
 //!   the per-shard manifests, pruning.
 //! - [`lock`]: one writer per shard folder; stale locks of dead processes are taken over.
+//! - [`plots`]: the per-file plots of `--plots`, drawn for flagged files (again after the fleet
+//!   step for outliers) and never left stale or half-written.
 //! - [`batch`]: the per-file loop (one file at a time, or a few concurrently), skipping what is
 //!   up to date.
 //! - [`assess`]: the fleet step proper: verdicts, outliers, unusual effects.
@@ -41,6 +43,7 @@ pub mod html;
 pub mod inputs;
 pub mod layout;
 pub mod lock;
+pub mod plots;
 pub mod record;
 pub mod robust;
 pub mod spec;
@@ -50,11 +53,12 @@ pub mod verdict;
 
 use std::path::PathBuf;
 
-pub use assess::{assess, Fleet, FleetRow, TermAssessment, TermStats, UnusualEffect};
+pub use assess::{assess, FailOn, Fleet, FleetRow, TermAssessment, TermStats, UnusualEffect};
 pub use batch::{run_batch, BatchConfig, BatchSummary, FileOutcome, Observer, PlotPolicy};
 pub use inputs::{collect_inputs, Input, Shard};
 pub use layout::{fleet_step, FleetStepSummary, Layout};
 pub use lock::{Lock, LockError};
+pub use plots::{plot_after_fleet, PlotPass};
 pub use record::{ChannelRecord, Status, TermValues};
 pub use robust::{median, robust_z, RobustScale};
 pub use spec::{FleetOptions, Limit, Spec, SpecError};

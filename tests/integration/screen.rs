@@ -187,7 +187,13 @@ fn a_fleet_with_three_planted_faults_flags_exactly_those_and_a_rerun_skips_every
         "cpu",
     ];
     let first = imunoise(&args, tmp.path());
-    assert_eq!(first.status.code(), Some(0), "{}", stderr(&first));
+    // Unit 3 fails its N limit on three axes: exit 3 (`--fail-on fail`, the default).
+    assert_eq!(first.status.code(), Some(3), "{}", stderr(&first));
+    assert!(
+        stderr(&first).contains("exit 3: 3 channels fail a limit"),
+        "{}",
+        stderr(&first)
+    );
     assert_eq!(lines_starting(&first, "done  "), 20, "{}", stderr(&first));
     let out = tmp.path().join("out");
     assert_eq!(parts(&out).len(), 20);
@@ -236,9 +242,29 @@ fn a_fleet_with_three_planted_faults_flags_exactly_those_and_a_rerun_skips_every
         .replace("http://www.w3.org/2000/svg", "")
         .contains("http"));
 
-    // The rerun: nothing recomputed, the same table.
-    let again = imunoise(&args, tmp.path());
+    // The rerun: nothing recomputed, the same table. With `--plots failures` the flagged units
+    // get their plots, the outlier and the unusual effects too (known only in the fleet step,
+    // which analyses those files again), and no other unit.
+    let mut plotted = args.to_vec();
+    plotted.extend(["--plots", "failures", "--fail-on", "never"]);
+    let again = imunoise(&plotted, tmp.path());
     assert_eq!(again.status.code(), Some(0), "{}", stderr(&again));
+    let mut plot_dirs: Vec<String> = std::fs::read_dir(out.join("plots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    plot_dirs.sort();
+    assert_eq!(plot_dirs.len(), 3, "{plot_dirs:?}");
+    for (dir, unit) in plot_dirs.iter().zip(["imu03", "imu07", "imu12"]) {
+        assert!(dir.starts_with(unit), "{plot_dirs:?}");
+        assert!(
+            std::fs::read_dir(out.join("plots").join(dir))
+                .unwrap()
+                .count()
+                > 0,
+            "{dir}"
+        );
+    }
     assert_eq!(lines_starting(&again, "skipped "), 20, "{}", stderr(&again));
     assert_eq!(lines_starting(&again, "done  "), 0, "{}", stderr(&again));
     assert!(
