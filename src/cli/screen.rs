@@ -338,10 +338,13 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
     std::fs::create_dir_all(&layout.dir)
         .map_err(|e| format!("cannot create {}: {e}", layout.dir.display()))?;
     let lock = Lock::acquire(&layout.shard_lock(job.shard.index)).map_err(|e| e.to_string())?;
-    if let Some((pid, host)) = &lock.took_over {
+    if let Some(t) = &lock.took_over {
         eprintln!(
-            "imunoise: note: took over the stale lock {} of pid {pid} on {host} (no such process)",
-            lock.path().display()
+            "imunoise: note: took over the stale lock {} of pid {} on {} ({})",
+            lock.path().display(),
+            t.pid,
+            t.host,
+            t.why
         );
     }
     let quiet = job.quiet;

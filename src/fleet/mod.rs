@@ -57,7 +57,7 @@ pub use assess::{assess, FailOn, Fleet, FleetRow, TermAssessment, TermStats, Unu
 pub use batch::{run_batch, BatchConfig, BatchSummary, FileOutcome, Observer, PlotPolicy};
 pub use inputs::{collect_inputs, Input, Shard};
 pub use layout::{fleet_step, FleetStepSummary, Layout};
-pub use lock::{Lock, LockError};
+pub use lock::{Lock, LockError, TakenOver};
 pub use plots::{plot_after_fleet, PlotPass};
 pub use record::{ChannelRecord, Status, TermValues};
 pub use robust::{median, robust_z, RobustScale};
