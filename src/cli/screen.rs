@@ -88,6 +88,12 @@ pub struct FleetFlags {
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub threads: usize,
 
+    /// Memory for the analyses in flight at once, e.g. 4G, 512M (bytes, K, M, G, T; powers of
+    /// 1024): a file starts only when its estimated footprint fits beside the others (a file
+    /// larger than the budget runs alone). Without it, --threads alone bounds them.
+    #[arg(long, value_name = "SIZE")]
+    pub memory_budget: Option<String>,
+
     /// Recompute inputs whose earlier result is an error (by default an unchanged file with
     /// unchanged options is not retried).
     #[arg(long)]
@@ -119,11 +125,42 @@ struct ScreenJob {
     layout: Layout,
     plots: PlotPolicy,
     fail_on: FailOn,
+    memory_budget: Option<u64>,
     threads: usize,
     retry_errors: bool,
     quiet: bool,
     verbose: bool,
     options_hash: String,
+}
+
+/// `4G`, `512M`, `1.5GiB`, `1000000` → bytes (K, M, G, T are powers of 1024).
+fn parse_size(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (num, suffix) = t.split_at(split);
+    let value: f64 = num
+        .parse()
+        .map_err(|_| format!("{s:?}: expected a size such as 4G or 512M"))?;
+    let shift = match suffix
+        .trim()
+        .to_ascii_uppercase()
+        .trim_end_matches("IB")
+        .trim_end_matches('B')
+    {
+        "" => 0,
+        "K" => 10,
+        "M" => 20,
+        "G" => 30,
+        "T" => 40,
+        _ => return Err(format!("{s:?}: unknown unit (bytes, K, M, G or T)")),
+    };
+    let bytes = value * (1u64 << shift) as f64;
+    if !(bytes >= 1.0 && bytes < u64::MAX as f64) {
+        return Err(format!("{s:?}: must be at least one byte"));
+    }
+    Ok(bytes as u64)
 }
 
 fn usage(e: impl std::fmt::Display) -> UsageError {
@@ -150,6 +187,12 @@ fn job(a: ScreenArgs) -> Result<ScreenJob, UsageError> {
         .fail_on
         .parse()
         .map_err(|e| usage(format!("--fail-on {e}")))?;
+    let memory_budget = f
+        .memory_budget
+        .as_deref()
+        .map(parse_size)
+        .transpose()
+        .map_err(|e| usage(format!("--memory-budget {e}")))?;
     if f.threads == 0 {
         return Err(usage("--threads: must be at least 1"));
     }
@@ -195,6 +238,7 @@ fn job(a: ScreenArgs) -> Result<ScreenJob, UsageError> {
         layout: Layout::new(f.out),
         plots,
         fail_on,
+        memory_budget,
         threads: f.threads,
         retry_errors: f.retry_errors,
         quiet: f.quiet,
@@ -377,6 +421,7 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
         retry_errors: job.retry_errors,
         plots: job.plots,
         spec: &job.spec,
+        memory_budget: job.memory_budget,
     };
     let batch = fleet::run_batch(&cfg, &inputs, backend.as_ref(), &report);
     if let Some(b) = &report.bar {
@@ -483,4 +528,21 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
     } else {
         EXIT_OK
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_size;
+
+    #[test]
+    fn sizes_parse_with_binary_units() {
+        assert_eq!(parse_size("4G"), Ok(4 << 30));
+        assert_eq!(parse_size("512M"), Ok(512 << 20));
+        assert_eq!(parse_size("1.5GiB"), Ok(3 << 29));
+        assert_eq!(parse_size("2048"), Ok(2048));
+        assert_eq!(parse_size(" 8 kb"), Ok(8 << 10));
+        for bad in ["", "G", "4X", "-1G", "0"] {
+            assert!(parse_size(bad).is_err(), "{bad}");
+        }
+    }
 }

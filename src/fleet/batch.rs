@@ -7,7 +7,9 @@
 //! errors that came from outside the file, such as a full disk). A result found in another shard's
 //! folder (a run with another shard count) is moved over instead of recomputed.
 //!
-//! **Memory.** `threads` workers take the next input from a shared counter; each holds one file's
+//! **Memory.** `threads` workers take the next input from a shared counter (and, under a memory
+//! budget, start it only when its estimated footprint fits beside the files in flight:
+//! [`super::budget`]); each holds one file's
 //! [`crate::pipeline::FileResult`] (samples are already dropped inside the pipeline; spectra and
 //! deviations here, once the rows are written), so memory is bounded by the worker count, not the
 //! number of files. The analysis of each file is itself parallel (rayon over channels), so one
@@ -22,6 +24,7 @@ use std::time::Instant;
 use crate::estimate::Backend;
 use crate::pipeline::{self, Inputs, Silent, Work};
 
+use super::budget::{footprint_bytes, Budget};
 use super::hash::file_identity;
 use super::inputs::{Input, Shard};
 use super::layout::{adopt, prune, Layout, Manifest};
@@ -70,6 +73,9 @@ pub struct BatchConfig<'a> {
     pub retry_errors: bool,
     pub plots: PlotPolicy,
     pub spec: &'a Spec,
+    /// Estimated bytes of analyses in flight at once ([`super::budget`]); `None`: only
+    /// `threads` bounds them.
+    pub memory_budget: Option<u64>,
 }
 
 /// What happened to one input.
@@ -143,6 +149,7 @@ pub fn run_batch(
     let fatal: Mutex<Option<ScreenError>> = Mutex::new(None);
     let stop = AtomicBool::new(false);
     let next = AtomicUsize::new(0);
+    let budget = cfg.memory_budget.map(Budget::new);
     let work = || loop {
         let i = next.fetch_add(1, Ordering::SeqCst);
         if i >= mine.len() || stop.load(Ordering::SeqCst) {
@@ -150,7 +157,7 @@ pub fn run_batch(
         }
         let input = mine[i];
         observer.started(input);
-        match process(cfg, input, backend) {
+        match process(cfg, input, backend, budget.as_ref()) {
             Ok(outcome) => {
                 {
                     let mut s = summary.lock().unwrap_or_else(|e| e.into_inner());
@@ -207,6 +214,7 @@ fn process(
     cfg: &BatchConfig<'_>,
     input: &Input,
     backend: &dyn Backend,
+    budget: Option<&Budget>,
 ) -> Result<FileOutcome, ScreenError> {
     let part = cfg.layout.part(cfg.shard.index, &input.key);
     let identity = file_identity(&input.path);
@@ -234,8 +242,22 @@ fn process(
             .flatten();
         return Ok(FileOutcome::Adopted { error });
     }
-    let t = Instant::now();
     let mut notes = Vec::new();
+    let admission = budget.map(|b| {
+        let cores = rayon::current_num_threads();
+        let bytes = footprint_bytes(&input.path, &cfg.inputs.open, cores).unwrap_or(0);
+        let a = b.admit(bytes);
+        if a.over {
+            notes.push(format!(
+                "estimated {} MB, over --memory-budget {} MB: analysed alone",
+                bytes >> 20,
+                b.limit() >> 20
+            ));
+        }
+        a
+    });
+    // Timed from admission: the wait for room is not this file's analysis.
+    let t = Instant::now();
     let records = match &identity {
         Err(e) => vec![ChannelRecord::error(
             input,
@@ -278,6 +300,11 @@ fn process(
         key: input.key.clone(),
     };
     write_part(&part, &records, &meta)?;
+    if admission.is_none() {
+        // (An admission does this when it is dropped.)
+        super::budget::release_freed_memory();
+    }
+    drop(admission);
     Ok(FileOutcome::Computed {
         seconds: t.elapsed().as_secs_f64(),
         records,

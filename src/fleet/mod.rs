@@ -27,6 +27,7 @@
 //! - [`lock`]: one writer per shard folder; stale locks of dead processes are taken over.
 //! - [`plots`]: the per-file plots of `--plots`, drawn for flagged files (again after the fleet
 //!   step for outliers) and never left stale or half-written.
+//! - [`budget`]: the estimated memory of a file's analysis and the budget that admits files.
 //! - [`batch`]: the per-file loop (one file at a time, or a few concurrently), skipping what is
 //!   up to date.
 //! - [`assess`]: the fleet step proper: verdicts, outliers, unusual effects.
@@ -38,6 +39,7 @@
 
 pub mod assess;
 pub mod batch;
+pub mod budget;
 pub mod hash;
 pub mod html;
 pub mod inputs;
