@@ -207,9 +207,12 @@ fn main() {
             tally.detected += usize::from(o.report.bandwidth.is_some());
             if !o.report.steps.is_empty() {
                 tally.with_effect += 1;
-                tally
-                    .effects
-                    .extend(o.report.steps.iter().map(|s| s.effect.kind()));
+                // Each kind once per record: the column counts records.
+                let mut kinds: Vec<&'static str> =
+                    o.report.steps.iter().map(|s| s.effect.kind()).collect();
+                kinds.sort_unstable();
+                kinds.dedup();
+                tally.effects.extend(kinds);
             }
             if let Some(kind) = case.expect {
                 tally.found_expected +=
@@ -252,9 +255,7 @@ fn main() {
         }
         let runs = tally.runs.max(1) as f64;
         let pct = |k: usize, of: usize| format!("{:.0} %", 100.0 * k as f64 / of.max(1) as f64);
-        let mut effects = tally.effects.clone();
-        effects.sort_unstable();
-        effects.dedup();
+        let effects: Vec<String> = tally.effects.iter().map(|k| k.to_string()).collect();
         let [mut rn, mut rb, mut rk] = tally.ratio;
         println!(
             "| {} | {} | {} | {}{} | {}{} | {:.3} | {} | {:.3} | {} | {} | {:.3} | {} | {} |",
@@ -274,11 +275,7 @@ fn main() {
                 None => "–".into(),
             },
             tally.with_effect,
-            if effects.is_empty() {
-                String::new()
-            } else {
-                format!(" ({})", effects.join(", "))
-            },
+            warning_summary(&effects),
             tally.warnings,
             warning_summary(&tally.warning_kinds),
             median(&mut rn),
