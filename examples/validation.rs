@@ -42,6 +42,11 @@ fn truth() -> Coefficients {
 
 #[derive(Default)]
 struct Tally {
+    /// Excursions found: how often each edge's interval covered the planted time, and the
+    /// interval widths (s).
+    edges_found: usize,
+    edge_covered: [usize; 2],
+    edge_widths: Vec<f64>,
     runs: usize,
     detected: usize,
     with_effect: usize,
@@ -154,6 +159,13 @@ fn main() {
             seconds: None,
         },
         Case {
+            name: "bias step: +10σ (10-s means) at 600 s",
+            filtered: false,
+            extra: json!({ "steps": [{ "time_s": 600.0, "size": EXCURSION }] }),
+            expect: Some("step"),
+            seconds: None,
+        },
+        Case {
             name: "excursion: +10σ (10-s means) from 600 s to 900 s",
             filtered: false,
             extra: json!({ "steps": [{ "time_s": 600.0, "size": EXCURSION }, { "time_s": 900.0, "size": -EXCURSION }] }),
@@ -181,6 +193,7 @@ fn main() {
     let only: Vec<String> = std::env::var("VALIDATION_CASES")
         .map(|v| v.split(',').map(str::to_owned).collect())
         .unwrap_or_default();
+    let mut edge_notes = Vec::new();
     for case in cases
         .iter()
         .filter(|c| only.is_empty() || only.iter().any(|o| c.name.contains(o.as_str())))
@@ -221,6 +234,25 @@ fn main() {
             for s in &o.report.steps {
                 if let imunoise::effects::Effect::Spikes(sp) = &s.effect {
                     tally.spikes_found += sp.indices.len();
+                }
+                if let imunoise::effects::Effect::Step(st) = &s.effect {
+                    tally.edges_found += 1;
+                    if let Some((a, b)) = st.time_interval_s {
+                        tally.edge_covered[0] += usize::from(a <= 600.0 && 600.0 <= b);
+                        tally.edge_widths.push(b - a);
+                    }
+                }
+                if let imunoise::effects::Effect::Excursion(e) = &s.effect {
+                    tally.edges_found += 1;
+                    for (k, (i, truth)) in [(e.start_interval_s, 600.0), (e.end_interval_s, 900.0)]
+                        .into_iter()
+                        .enumerate()
+                    {
+                        if let Some((a, b)) = i {
+                            tally.edge_covered[k] += usize::from(a <= truth && truth <= b);
+                            tally.edge_widths.push(b - a);
+                        }
+                    }
                 }
             }
             let dev = compute(
@@ -288,5 +320,26 @@ fn main() {
             pct(tally.kept[2], tally.runs),
         );
         let _ = runs;
+        if tally.edges_found > 0 && case.expect == Some("step") {
+            edge_notes.push(format!(
+                "{}: of {} steps found, the 1σ interval of the time covers the planted 600 s in {}; median interval width {:.1} s.",
+                case.name,
+                tally.edges_found,
+                pct(tally.edge_covered[0], tally.edges_found),
+                median(&mut tally.edge_widths)
+            ));
+        } else if tally.edges_found > 0 {
+            edge_notes.push(format!(
+                "{}: of {} excursions found, the 1σ interval of the start covers the planted 600 s in {}, of the end the planted 900 s in {}; median interval width {:.1} s.",
+                case.name,
+                tally.edges_found,
+                pct(tally.edge_covered[0], tally.edges_found),
+                pct(tally.edge_covered[1], tally.edges_found),
+                median(&mut tally.edge_widths)
+            ));
+        }
+    }
+    for n in edge_notes {
+        println!("\n{n}");
     }
 }

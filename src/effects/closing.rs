@@ -33,11 +33,15 @@ use crate::model::{
 };
 use crate::psd::{log_bin, welch, BinnedPsd, Psd, WelchConfig};
 
-use super::excursion::{excursion_in, excursion_under_model, remove_excursion, Excursion};
+use super::excursion::{
+    edge_time_interval, excursion_from_scan, excursion_under_model, remove_excursion, Excursion,
+    MIN_BLOCKS,
+};
 use super::lines::{find_excess, Excess};
 use super::regression::IncrementModel;
 use super::residuals::{diagnose, Diagnostics};
 use super::shapes::{GaussMarkov1, Resonance};
+use super::shift::{step_from_scan, step_under_model};
 use super::slow::{
     coupling_under_model, drift_in, drift_under_model, remove_drift, Drift, DETECTION_P,
 };
@@ -45,7 +49,7 @@ use super::time::stats::norm_isf;
 use super::time::{
     find_spikes, find_step, fit_coupling, fit_sinusoid, measure_narrowband, remove_coupling,
     remove_narrowband, remove_sinusoid, remove_spikes, remove_step, split_record, Coupling,
-    NarrowBand, SineFit, Spikes, SplitRecord, Step,
+    NarrowBand, SineFit, Spikes, SplitRecord, Step, StepMethod,
 };
 
 /// Most effects added to one channel.
@@ -310,6 +314,7 @@ impl Candidate {
                 ))
             }
             Effect::Excursion(e) => e.p_value,
+            Effect::Step(s) if s.method == StepMethod::Gls => s.p_value,
             _ => return None,
         };
         (p.is_nan() || p >= DETECTION_P)
@@ -498,7 +503,21 @@ fn propose(
             apply: Apply::Series(Box::new(move |y| remove_spikes(y, &s))),
         });
     }
-    if let Some(step) = find_step(y, fs, p) {
+    if let Some(mut step) = find_step(y, fs, p) {
+        // Its time's interval under the fitted noise, for a step that may be kept, searched over
+        // four of its scan windows either side.
+        if step.delta_bic < 0.0 {
+            if let Some(model) = state.allan.as_ref().or(state.spectrum.as_ref()) {
+                let density = noise_density(model, state.stochastic.as_ref(), fs);
+                let search = (4.0 * step.window_s * fs) as usize;
+                if let Some((a, b, cut)) =
+                    edge_time_interval(y, fs, &density, step.index, search, step.size.signum(), p)
+                {
+                    step.time_interval_s = Some((a as f64 / fs, b as f64 / fs));
+                    step.time_interval_cut = cut;
+                }
+            }
+        }
         let s = step.clone();
         out.push(Candidate {
             delta_bic: step.delta_bic,
@@ -750,10 +769,34 @@ fn slow_candidates(
             apply: Apply::Series(Box::new(move |y| remove_drift(y, fs, &s))),
         });
     }
-    let estimate = |density: &dyn Fn(f64) -> f64| excursion_under_model(y, fs, density, p);
-    let first = increments
+    // One scan of every box gives the best excursion and the best single step.
+    let boxes = increments
         .as_ref()
-        .and_then(|(u, m)| excursion_in(y, fs, m, u, p));
+        .and_then(|(u, m)| Some((u, m, m.best_box(u, MIN_BLOCKS)?)));
+    let estimate = |density: &dyn Fn(f64) -> f64| step_under_model(y, fs, density, p);
+    let first = boxes
+        .as_ref()
+        .and_then(|(u, m, scan)| step_from_scan(y, fs, &density, m, u, scan, p));
+    if let Some(first) = first {
+        let promising = first.p_value < REFINE_P;
+        let s = refined(state, fs, cfg, first, promising, &estimate, &|v, s| {
+            remove_step(v, s)
+        });
+        let applied = s.clone();
+        out.push(Candidate {
+            delta_bic: s.delta_bic,
+            evidence: format!(
+                "time series: the mean shifts at {:.1} s and stays, under the fitted noise model (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over the positions)",
+                s.time_s, s.z, increments.as_ref().map_or(0, |(_, m)| m.m), s.window_s, s.p_value
+            ),
+            effect: Effect::Step(s),
+            apply: Apply::Series(Box::new(move |y| remove_step(y, &applied))),
+        });
+    }
+    let estimate = |density: &dyn Fn(f64) -> f64| excursion_under_model(y, fs, density, p);
+    let first = boxes
+        .as_ref()
+        .and_then(|(u, m, scan)| excursion_from_scan(y, fs, &density, m, u, scan, p));
     if let Some(first) = first {
         let promising = first.p_value < REFINE_P;
         let e = refined(state, fs, cfg, first, promising, &estimate, &|v, e| {

@@ -116,6 +116,9 @@ pub struct BoxScan {
     pub tried: usize,
     /// The largest t² of a single step (a rise that stays).
     pub step_t2: f64,
+    /// That step: its increment and its regression (with its Student p-value, uncorrected for
+    /// the m positions tried).
+    pub step: Option<(usize, Gls)>,
 }
 
 /// Block-mean increments whitened by an [`IncrementModel`].
@@ -319,11 +322,13 @@ impl IncrementModel {
             })
         };
         let mut best: Option<(usize, usize, Gls)> = None;
-        let mut step_t2: f64 = 0.0;
+        let mut step: Option<(usize, Gls)> = None;
         let mut tried = 0;
         for a in 0..m {
             if let Some(f) = fit(a, None) {
-                step_t2 = step_t2.max(f.t * f.t);
+                if step.is_none_or(|(_, x)| f.t.abs() > x.t.abs()) {
+                    step = Some((a, f));
+                }
             }
             for b in a + min_len..m {
                 tried += 1;
@@ -334,17 +339,20 @@ impl IncrementModel {
                 }
             }
         }
-        best.map(|(rise, fall, mut gls)| {
+        let with_p = |mut gls: Gls| {
             if gls.se > 0.0 {
                 gls.p = 2.0 * t_sf(gls.t.abs(), dof);
             }
-            BoxScan {
-                rise,
-                fall,
-                gls,
-                tried,
-                step_t2,
-            }
+            gls
+        };
+        let step = step.map(|(a, g)| (a, with_p(g)));
+        best.map(|(rise, fall, gls)| BoxScan {
+            rise,
+            fall,
+            gls: with_p(gls),
+            tried,
+            step_t2: step.map_or(0.0, |(_, g)| g.t * g.t),
+            step,
         })
     }
 

@@ -438,16 +438,30 @@ pub fn effect_line(e: &Effect, units: &EffectUnits) -> String {
             100.0 * s.variance_share
         ),
         Effect::Step(s) => format!(
-            "bias step at {:.1} s of {}",
-            s.time_s,
+            "bias step at {} of {}",
+            match s.time_interval_s {
+                Some((a, b)) => format!("{:.1} s [{a:.1}, {b:.1}]", s.time_s),
+                None => format!("{:.1} s", s.time_s),
+            },
             v.interval(s.size, s.lo, s.hi)
         ),
-        Effect::Excursion(e) => format!(
-            "excursion from {:.1} s to {:.1} s of {}",
-            e.start_s,
-            e.end_s,
-            v.interval(e.size, e.lo, e.hi)
-        ),
+        Effect::Excursion(e) => {
+            let when = |t: f64, i: Option<(f64, f64)>| match i {
+                Some((a, b)) => format!("{t:.1} s [{a:.1}, {b:.1}]"),
+                None => format!("{t:.1} s"),
+            };
+            format!(
+                "excursion from {} to {} of {}{}",
+                when(e.start_s, e.start_interval_s),
+                when(e.end_s, e.end_interval_s),
+                v.interval(e.size, e.lo, e.hi),
+                if e.interval_cut {
+                    " (an edge interval cut at its search's end)"
+                } else {
+                    ""
+                }
+            )
+        }
     }
 }
 

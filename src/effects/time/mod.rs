@@ -39,7 +39,7 @@ pub use narrowband::{measure_narrowband, remove_narrowband, NarrowBand};
 pub use sinusoid::{fit_sinusoid, remove_sinusoid, SineFit};
 pub use spikes::{find_spikes, remove_spikes, Spikes};
 pub use stationarity::{split_record, SplitRecord};
-pub use step::{find_step, remove_step, Step};
+pub use step::{find_step, remove_step, Step, StepMethod};
 
 #[cfg(test)]
 mod tests {

@@ -51,6 +51,25 @@ pub struct Step {
     pub delta_bic: f64,
     /// The window length w·τ₀ of the best evidence.
     pub window_s: f64,
+    /// Profile-likelihood interval of the step's time, s, under the fitted noise model (set by
+    /// the residual loop, which has the model: [`crate::effects::excursion::edge_time_interval`]);
+    /// `None` where it was not computed.
+    pub time_interval_s: Option<(f64, f64)>,
+    /// That interval reached the end of its search and was cut there.
+    pub time_interval_cut: bool,
+    /// Which detector found it.
+    pub method: StepMethod,
+}
+
+/// How a step was found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StepMethod {
+    /// The dynamic Allan scan of this module (windows around each position).
+    AllanScan,
+    /// Generalised least squares on the whole record's block-mean increments under the fitted
+    /// noise model ([`crate::effects::shift`]).
+    Gls,
 }
 
 struct Scan {
@@ -100,6 +119,9 @@ pub fn find_step(y: &[f64], rate_hz: f64, p: f64) -> Option<Step> {
         p_value,
         delta_bic: delta_bic(1.0, (n / best.w) as f64, p_value, best.z * best.z),
         window_s: best.w as f64 / rate_hz,
+        time_interval_s: None,
+        time_interval_cut: false,
+        method: StepMethod::AllanScan,
     })
 }
 
