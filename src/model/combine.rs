@@ -459,6 +459,19 @@ pub fn read_offs(dev: &Deviations) -> Vec<ReadOff> {
     out
 }
 
+/// The number of rate samples behind point `i` of `dev` (from its term count).
+fn samples_behind(dev: &Deviations, i: usize) -> usize {
+    use crate::avar::Statistic;
+    let (terms, m) = (dev.n_terms[i], dev.m[i]);
+    let d = u64::from(dev.statistic.difference_order());
+    (match dev.statistic {
+        Statistic::Oadev | Statistic::Ohdev => (terms + d * m).saturating_sub(1),
+        Statistic::Adev => (terms + 1) * m,
+        Statistic::Hdev => (terms + 2) * m,
+        Statistic::Mdev => (terms + 3 * m).saturating_sub(2),
+    }) as usize
+}
+
 /// The τ at which a term's Allan variance alone is checked against the measurement and the
 /// measurement's 99 % upper bound there (from the point's EDF).
 fn allan_bound(dev: &Deviations, term: Term) -> Option<(f64, f64)> {
@@ -470,11 +483,22 @@ fn allan_bound(dev: &Deviations, term: Term) -> Option<(f64, f64)> {
         Term::RateRandomWalk => nearest(dev, 3.0)?,
         _ => return None,
     };
-    let nu = dev
+    let identified = dev
         .edf
         .get(i)
         .copied()
         .filter(|v| v.is_finite() && *v > 0.0)?;
+    // The EDF of the identified noise type, but never more than a rate noise (white, flicker or
+    // random-walk FM) would give there: at the longest τ a handful of averages can be identified
+    // as phase noise (α = 1), whose EDF (154 at 4 averages of a 24-h record) made the bound so
+    // tight that a right B (3.07 °/h, truth 3) was called a contradiction of its read-off.
+    let m = dev.m[i];
+    let n = samples_behind(dev, i);
+    let nu = [0i8, -1, -2]
+        .into_iter()
+        .map(|alpha| crate::avar::edf::edf(dev.statistic, alpha, m, n))
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .fold(identified, f64::min);
     Some((
         dev.tau_s[i],
         dev.variance[i] * nu / chi2_quantile(0.005, nu),
@@ -495,6 +519,44 @@ mod tests {
             edf: 100.0,
             ambiguous_with: None,
         }
+    }
+
+    /// The 24-h record that called a right B a contradiction: its Allan minimum at 4 averages
+    /// was identified as flicker PM (α = 1, EDF 154). The bound now takes at most a rate noise's
+    /// EDF there, and the term counts give back the sample count.
+    #[test]
+    fn a_minimum_at_few_averages_is_bounded_with_a_rate_noises_edf() {
+        use crate::avar::{edf::edf, Statistic};
+        let n = 34_560_000usize;
+        let ms = [4_194_304u64, 8_388_608, 16_777_216];
+        let variance = vec![7.38e-11, 3.66e-11, 4.51e-11];
+        let dev = Deviations {
+            statistic: Statistic::Oadev,
+            rate_hz: 400.0,
+            m: ms.to_vec(),
+            tau_s: ms.iter().map(|&m| m as f64 / 400.0).collect(),
+            variance: variance.clone(),
+            n_terms: ms.iter().map(|&m| Statistic::Oadev.n_terms(n, m)).collect(),
+            alpha: vec![0, 1, 1],
+            edf: vec![10.2, 154.2, 17.9],
+            variance_lo: variance.clone(),
+            variance_hi: variance.clone(),
+            confidence: 0.6827,
+        };
+        for i in 0..3 {
+            assert_eq!(samples_behind(&dev, i), n);
+        }
+        let (tau, bound) = allan_bound(&dev, Term::BiasInstability).unwrap();
+        assert_eq!(tau, ms[1] as f64 / 400.0);
+        let nu = edf(Statistic::Oadev, -2, ms[1], n);
+        assert!(nu < 10.0, "{nu}");
+        let want = 3.66e-11 * nu / chi2_quantile(0.005, nu);
+        assert!((bound / want - 1.0).abs() < 1e-9, "{bound} vs {want}");
+        // B = 3.07 °/h: (0.664·B)² = 9.8e-11, below the bound now, above the old one.
+        let b = 3.07 * std::f64::consts::PI / 180.0 / 3600.0;
+        let b_var = FLICKER_PLATEAU * b * b;
+        let old = 3.66e-11 * 154.2 / chi2_quantile(0.005, 154.2);
+        assert!(b_var > old && b_var < bound, "{b_var} {old} {bound}");
     }
 
     fn fit(domain: Domain, estimates: Vec<TermEstimate>, upper: Vec<(Term, f64)>) -> NoiseFit {
