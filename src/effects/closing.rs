@@ -34,14 +34,13 @@ use crate::model::{
 use crate::psd::{log_bin, welch, BinnedPsd, Psd, WelchConfig};
 
 use super::excursion::{
-    edge_time_interval, excursion_from_scan, excursion_under_model, remove_excursion, Excursion,
-    MIN_BLOCKS,
+    excursion_under_model, remove_excursion, BoxSearch, Excursion, LevelChange,
 };
 use super::lines::{find_excess, Excess};
 use super::regression::IncrementModel;
 use super::residuals::{diagnose, Diagnostics};
 use super::shapes::{GaussMarkov1, Resonance};
-use super::shift::{step_from_scan, step_under_model};
+use super::shift::{step_from_search, step_under_model};
 use super::slow::{
     coupling_under_model, drift_in, drift_under_model, remove_drift, Drift, DETECTION_P,
 };
@@ -510,11 +509,16 @@ fn propose(
             if let Some(model) = state.allan.as_ref().or(state.spectrum.as_ref()) {
                 let density = noise_density(model, state.stochastic.as_ref(), fs);
                 let search = (4.0 * step.window_s * fs) as usize;
-                if let Some((a, b, cut)) =
-                    edge_time_interval(y, fs, &density, step.index, search, step.size.signum(), p)
-                {
-                    step.time_interval_s = Some((a as f64 / fs, b as f64 / fs));
-                    step.time_interval_cut = cut;
+                let change = LevelChange {
+                    y,
+                    fs,
+                    density: &density,
+                    sign: step.size.signum(),
+                    level: p,
+                };
+                if let Some(i) = change.interval(step.index, search) {
+                    step.time_interval_s = Some(i.seconds(fs));
+                    step.time_interval_cut = i.cut;
                 }
             }
         }
@@ -772,11 +776,9 @@ fn slow_candidates(
     // One scan of every box gives the best excursion and the best single step.
     let boxes = increments
         .as_ref()
-        .and_then(|(u, m)| Some((u, m, m.best_box(u, MIN_BLOCKS)?)));
+        .and_then(|(u, m)| BoxSearch::new(y, fs, &density, m, u));
     let estimate = |density: &dyn Fn(f64) -> f64| step_under_model(y, fs, density, p);
-    let first = boxes
-        .as_ref()
-        .and_then(|(u, m, scan)| step_from_scan(y, fs, &density, m, u, scan, p));
+    let first = boxes.as_ref().and_then(|b| step_from_search(b, p));
     if let Some(first) = first {
         let promising = first.p_value < REFINE_P;
         let s = refined(state, fs, cfg, first, promising, &estimate, &|v, s| {
@@ -794,9 +796,7 @@ fn slow_candidates(
         });
     }
     let estimate = |density: &dyn Fn(f64) -> f64| excursion_under_model(y, fs, density, p);
-    let first = boxes
-        .as_ref()
-        .and_then(|(u, m, scan)| excursion_from_scan(y, fs, &density, m, u, scan, p));
+    let first = boxes.as_ref().and_then(|b| b.excursion(p));
     if let Some(first) = first {
         let promising = first.p_value < REFINE_P;
         let e = refined(state, fs, cfg, first, promising, &estimate, &|v, e| {

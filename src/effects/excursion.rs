@@ -122,83 +122,110 @@ pub fn excursion_under_model(
 ) -> Option<Excursion> {
     let model = IncrementModel::new(density, fs, y.len())?;
     let u = model.whitened(&model.increments(y))?;
-    excursion_in(y, fs, density, &model, &u, p)
+    BoxSearch::new(y, fs, density, &model, &u)?.excursion(p)
 }
 
-/// [`excursion_under_model`] with the increment model and the whitened increments of `y` given.
-pub fn excursion_in(
-    y: &[f64],
-    fs: f64,
-    density: &dyn Fn(f64) -> f64,
-    model: &IncrementModel,
-    u: &Whitened,
-    p: f64,
-) -> Option<Excursion> {
-    let found = model.best_box(u, MIN_BLOCKS)?;
-    excursion_from_scan(y, fs, density, model, u, &found, p)
+/// A series, its noise model, and the scan of every box of its whitened increments: what the
+/// excursion and the GLS step ([`super::shift`]) are read from.
+pub struct BoxSearch<'a> {
+    pub y: &'a [f64],
+    pub fs: f64,
+    pub density: &'a dyn Fn(f64) -> f64,
+    pub model: &'a IncrementModel,
+    pub u: &'a Whitened,
+    pub scan: BoxScan,
 }
 
-/// [`excursion_in`] with the box scan done (it also holds the best single step, which
-/// [`super::shift`] reads).
-pub fn excursion_from_scan(
-    y: &[f64],
-    fs: f64,
-    density: &dyn Fn(f64) -> f64,
-    model: &IncrementModel,
-    u: &Whitened,
-    found: &BoxScan,
-    p: f64,
-) -> Option<Excursion> {
-    let (a, b, scan, boxes) = (found.rise, found.fall, found.gls, found.tried);
-    let block = model.block;
-    let sign = scan.beta.signum();
-    // Increment a rises into block mean a + 1; increment b falls out of block mean b.
-    // Each edge within REACH blocks of the box's (and within a third of the box, so that the
-    // edges cannot cross), by means over half the box on either side.
-    let len = (b - a) * block;
-    let half = (len / 2).max(block);
-    let reach = (REACH * block).min(len / 3);
-    let start = place_edge(y, (a + 1) * block, reach, half, sign);
-    let end = place_edge(y, (b + 1) * block, reach, half, -sign);
-    if end <= start {
-        return None;
+impl<'a> BoxSearch<'a> {
+    /// Scans every box of at least [`MIN_BLOCKS`] blocks; `None` for too few increments.
+    pub fn new(
+        y: &'a [f64],
+        fs: f64,
+        density: &'a dyn Fn(f64) -> f64,
+        model: &'a IncrementModel,
+        u: &'a Whitened,
+    ) -> Option<Self> {
+        let scan = model.best_box(u, MIN_BLOCKS)?;
+        Some(Self {
+            y,
+            fs,
+            density,
+            model,
+            u,
+            scan,
+        })
     }
-    let x = box_increments(start, end, block, model.m);
-    let gls = model.regress_whitened(u, &x, 0.0).unwrap_or(scan);
-    let p_value = (scan.p * boxes as f64).min(1.0);
-    let half = t_two_sided(p, gls.dof) * gls.se;
-    let over_step_t2 = scan.t * scan.t - found.step_t2;
-    let step_price_t2 = 2.0 * (model.m as f64).ln();
-    let search = (EDGE_SEARCH * block).min(len / 3);
-    let (start_interval, end_interval) = if p_value < DETECTION_P && over_step_t2 > step_price_t2 {
-        (
-            refined_edge_interval(y, fs, density, start, search, sign, p),
-            refined_edge_interval(y, fs, density, end, search, -sign, p),
-        )
-    } else {
-        (None, None)
-    };
-    let seconds = |(a, b, _): (usize, usize, bool)| (a as f64 / fs, b as f64 / fs);
-    Some(Excursion {
-        start_index: start,
-        end_index: end,
-        start_s: start as f64 / fs,
-        end_s: end as f64 / fs,
-        start_interval_s: start_interval.map(seconds),
-        end_interval_s: end_interval.map(seconds),
-        interval_cut: start_interval.is_some_and(|i| i.2) || end_interval.is_some_and(|i| i.2),
-        size: gls.beta,
-        lo: gls.beta - half,
-        hi: gls.beta + half,
-        z: gls.t,
-        p_value,
-        delta_bic: delta_bic(1.0, model.m as f64, p_value, scan.t * scan.t),
-        boxes,
-        over_step_t2,
-        step_price_t2,
-        block_s: block as f64 / fs,
-        increments: model.m,
-    })
+
+    /// The best box as an excursion (detected or not; `p`: the confidence of its intervals).
+    pub fn excursion(&self, p: f64) -> Option<Excursion> {
+        let Self {
+            y,
+            fs,
+            density,
+            model,
+            u,
+            scan: found,
+        } = self;
+        let (y, fs) = (*y, *fs);
+        let (a, b, scan, boxes) = (found.rise, found.fall, found.gls, found.tried);
+        let block = model.block;
+        let sign = scan.beta.signum();
+        // Increment a rises into block mean a + 1; increment b falls out of block mean b.
+        // Each edge within REACH blocks of the box's (and within a third of the box, so that the
+        // edges cannot cross), by means over half the box on either side.
+        let len = (b - a) * block;
+        let half = (len / 2).max(block);
+        let reach = (REACH * block).min(len / 3);
+        let start = place_edge(y, (a + 1) * block, reach, half, sign);
+        let end = place_edge(y, (b + 1) * block, reach, half, -sign);
+        if end <= start {
+            return None;
+        }
+        let x = box_increments(start, end, block, model.m);
+        let gls = model.regress_whitened(u, &x, 0.0).unwrap_or(scan);
+        let p_value = (scan.p * boxes as f64).min(1.0);
+        let half = t_two_sided(p, gls.dof) * gls.se;
+        let over_step_t2 = scan.t * scan.t - found.step_t2;
+        let step_price_t2 = 2.0 * (model.m as f64).ln();
+        let search = (EDGE_SEARCH * block).min(len / 3);
+        let edge = |sign: f64| LevelChange {
+            y,
+            fs,
+            density,
+            sign,
+            level: p,
+        };
+        let (start_interval, end_interval) =
+            if p_value < DETECTION_P && over_step_t2 > step_price_t2 {
+                (
+                    edge(sign).interval(start, search),
+                    edge(-sign).interval(end, search),
+                )
+            } else {
+                (None, None)
+            };
+        Some(Excursion {
+            start_index: start,
+            end_index: end,
+            start_s: start as f64 / fs,
+            end_s: end as f64 / fs,
+            start_interval_s: start_interval.map(|i| i.seconds(fs)),
+            end_interval_s: end_interval.map(|i| i.seconds(fs)),
+            interval_cut: start_interval.is_some_and(|i| i.cut)
+                || end_interval.is_some_and(|i| i.cut),
+            size: gls.beta,
+            lo: gls.beta - half,
+            hi: gls.beta + half,
+            z: gls.t,
+            p_value,
+            delta_bic: delta_bic(1.0, model.m as f64, p_value, scan.t * scan.t),
+            boxes,
+            over_step_t2,
+            step_price_t2,
+            block_s: block as f64 / fs,
+            increments: model.m,
+        })
+    }
 }
 
 /// The sample within `reach` of `near` where the mean of the `half` samples after it exceeds
@@ -232,93 +259,92 @@ pub(crate) fn place_edge(y: &[f64], near: usize, reach: usize, half: usize, sign
         .map_or(near, |(k, _)| k)
 }
 
-/// The profile-likelihood interval of a level change at sample `at` (a rise when `sign` > 0),
-/// searched within `search` samples, under the noise `density`, at `level`: (first, last sample,
-/// cut at the search's end), or `None` where the samples there are too few to block. An
-/// excursion's edges and a bias step's time both use it (see the module's docs).
-pub fn edge_time_interval(
-    y: &[f64],
-    fs: f64,
-    density: &dyn Fn(f64) -> f64,
-    at: usize,
-    search: usize,
-    sign: f64,
-    level: f64,
-) -> Option<(usize, usize, bool)> {
-    refined_edge_interval(y, fs, density, at, search, sign, level)
+/// A level change in `y` whose time is to be bounded: a rise when `sign` > 0, under the noise
+/// `density` (one-sided, units²/Hz), at confidence `level`. An excursion's edges and a bias
+/// step's time both use it (see the module's docs).
+pub struct LevelChange<'a> {
+    pub y: &'a [f64],
+    pub fs: f64,
+    pub density: &'a dyn Fn(f64) -> f64,
+    pub sign: f64,
+    pub level: f64,
 }
 
-/// [`edge_interval`] over the whole search, then again over a window of one and a half times the
-/// first interval's width either side of its middle (finer local blocks, down to a few samples:
-/// the block means of a wide window still blur where inside a block the edge lies, and their
-/// intervals over-covered, 80–84 % at 1σ); the second is kept unless it reaches its window's end.
-fn refined_edge_interval(
-    y: &[f64],
-    fs: f64,
-    density: &dyn Fn(f64) -> f64,
-    at: usize,
-    search: usize,
-    sign: f64,
-    level: f64,
-) -> Option<(usize, usize, bool)> {
-    let first = edge_interval(y, fs, density, at, search, sign, level)?;
-    let (a, b, _) = first;
-    let half = (3 * (b - a) / 2).max(MIN_EDGE_WINDOW);
-    if half >= search {
-        return Some(first);
+/// The profile-likelihood interval of a level change's time, in samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EdgeInterval {
+    pub first: usize,
+    pub last: usize,
+    /// The set reached the end of its search and was cut there.
+    pub cut: bool,
+}
+
+impl EdgeInterval {
+    /// (first, last) in seconds at `fs`.
+    pub fn seconds(&self, fs: f64) -> (f64, f64) {
+        (self.first as f64 / fs, self.last as f64 / fs)
     }
-    edge_interval(y, fs, density, (a + b) / 2, half, sign, level)
-        .filter(|r| !r.2)
-        .or(Some(first))
 }
 
-/// The profile-likelihood interval of the edge at sample `at` (a rise when `sign` > 0) from the
-/// samples within `search` of it, under the noise `density`: (first, last position inside, whether
-/// the set reached the end of the search). See the module's docs.
-fn edge_interval(
-    y: &[f64],
-    fs: f64,
-    density: &dyn Fn(f64) -> f64,
-    at: usize,
-    search: usize,
-    sign: f64,
-    level: f64,
-) -> Option<(usize, usize, bool)> {
-    let from = at.saturating_sub(search);
-    let to = (at + search).min(y.len());
-    let local = &y[from..to];
-    let model = IncrementModel::with_increments(density, fs, local.len(), EDGE_INCREMENTS)?;
-    let u = model.whitened(&model.increments(local))?;
-    let covered = (model.m + 1) * model.block;
-    let step = (model.block / EDGE_STEPS_PER_BLOCK).max(1);
-    // A step at k (local): the level from k on, to past the blocked samples.
-    let profile: Vec<(usize, f64)> = (model.block..covered.saturating_sub(model.block))
-        .step_by(step)
-        .filter_map(|k| {
-            let g = model.regress_whitened(
-                &u,
-                &box_increments(k, covered + 1, model.block, model.m),
-                0.0,
-            )?;
-            // Only steps in the edge's direction (a fall in a rise's place is another effect).
-            (g.beta * sign >= 0.0).then_some((k, g.scale * g.dof))
+impl LevelChange<'_> {
+    /// The interval of the change placed at sample `at`, searched within `search` samples of it;
+    /// then again over a window of one and a half times that interval's width either side of its
+    /// middle (finer local blocks, down to a few samples: the block means of a wide window still
+    /// blur where inside a block the edge lies, and their intervals over-covered, 80–84 % at 1σ);
+    /// the second is kept unless it reaches its window's end. `None` where the samples there are
+    /// too few to block.
+    pub fn interval(&self, at: usize, search: usize) -> Option<EdgeInterval> {
+        let first = self.profile_interval(at, search)?;
+        let half = (3 * (first.last - first.first) / 2).max(MIN_EDGE_WINDOW);
+        if half >= search {
+            return Some(first);
+        }
+        self.profile_interval((first.first + first.last) / 2, half)
+            .filter(|r| !r.cut)
+            .or(Some(first))
+    }
+
+    /// One pass: the samples within `search` of `at` blocked into a local increment model, a step
+    /// at every position, and the positions whose profile log-likelihood is within c/2 of the
+    /// best (see the module's docs).
+    fn profile_interval(&self, at: usize, search: usize) -> Option<EdgeInterval> {
+        let from = at.saturating_sub(search);
+        let to = (at + search).min(self.y.len());
+        let local = &self.y[from..to];
+        let model =
+            IncrementModel::with_increments(self.density, self.fs, local.len(), EDGE_INCREMENTS)?;
+        let u = model.whitened(&model.increments(local))?;
+        let covered = (model.m + 1) * model.block;
+        let step = (model.block / EDGE_STEPS_PER_BLOCK).max(1);
+        // A step at k (local): the level from k on, to past the blocked samples.
+        let profile: Vec<(usize, f64)> = (model.block..covered.saturating_sub(model.block))
+            .step_by(step)
+            .filter_map(|k| {
+                let x = box_increments(k, covered + 1, model.block, model.m);
+                let g = model.regress_whitened(&u, &x, 0.0)?;
+                // Only steps in the change's direction (a fall in a rise's place is another
+                // effect).
+                (g.beta * self.sign >= 0.0).then_some((k, g.scale * g.dof))
+            })
+            .collect();
+        let best = profile.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+        if best.is_nan() || best <= 0.0 || best.is_infinite() {
+            return None;
+        }
+        let c = -2.0 * (1.0 - self.level.clamp(0.0, 0.999_999).sqrt()).ln();
+        let m = model.m as f64;
+        let inside: Vec<usize> = profile
+            .iter()
+            .filter(|(_, r)| m * (r / best).ln() <= c)
+            .map(|p| p.0)
+            .collect();
+        let (first, last) = (*inside.first()?, *inside.last()?);
+        Some(EdgeInterval {
+            first: from + first,
+            last: from + last,
+            cut: first == profile[0].0 || last == profile[profile.len() - 1].0,
         })
-        .collect();
-    let best = profile.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
-    if best.is_nan() || best <= 0.0 || best.is_infinite() {
-        return None;
     }
-    let c = -2.0 * (1.0 - level.clamp(0.0, 0.999_999).sqrt()).ln();
-    let m = model.m as f64;
-    let inside: Vec<usize> = profile
-        .iter()
-        .filter(|(_, r)| m * (r / best).ln() <= c)
-        .map(|p| p.0)
-        .collect();
-    let first = *inside.first()?;
-    let last = *inside.last()?;
-    let cut = first == profile[0].0 || last == profile[profile.len() - 1].0;
-    Some((from + first, from + last, cut))
 }
 
 /// Increments of the block means (blocks of `block` samples, m + 1 of them) of the indicator of

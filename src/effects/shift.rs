@@ -12,10 +12,10 @@
 //! placed to the sample (the largest difference of the means over [`HALF_BLOCKS`] blocks either
 //! side, within [`super::excursion`]'s reach), the size is the GLS coefficient of the step at
 //! that sample with its Student-t interval, and the time gets the profile-likelihood interval of
-//! [`edge_time_interval`].
+//! [`LevelChange::interval`].
 
-use super::excursion::{box_increments, edge_time_interval, place_edge};
-use super::regression::{BoxScan, IncrementModel, Whitened};
+use super::excursion::{box_increments, place_edge, BoxSearch, LevelChange};
+use super::regression::IncrementModel;
 use super::slow::DETECTION_P;
 use super::time::stats::{delta_bic, t_two_sided};
 use super::time::{Step, StepMethod};
@@ -27,18 +27,19 @@ const REACH: usize = 4;
 /// How far (in blocks) the time's interval is searched.
 const INTERVAL_SEARCH: usize = 16;
 
-/// The best single step of the box scan `found` as a [`Step`] (found by
-/// [`StepMethod::Gls`]); `None` where the scan has none or its edge cannot be placed.
-pub fn step_from_scan(
-    y: &[f64],
-    fs: f64,
-    density: &dyn Fn(f64) -> f64,
-    model: &IncrementModel,
-    u: &Whitened,
-    found: &BoxScan,
-    p: f64,
-) -> Option<Step> {
-    let (a, first) = found.step?;
+/// The best single step of the box scan as a [`Step`] (found by [`StepMethod::Gls`]); `None`
+/// where the scan has none or its edge cannot be placed.
+pub fn step_from_search(search: &BoxSearch<'_>, p: f64) -> Option<Step> {
+    let BoxSearch {
+        y,
+        fs,
+        density,
+        model,
+        u,
+        scan,
+    } = search;
+    let (y, fs) = (*y, *fs);
+    let (a, first) = scan.step?;
     let block = model.block;
     let covered = (model.m + 1) * block;
     let sign = first.beta.signum();
@@ -52,8 +53,15 @@ pub fn step_from_scan(
         .unwrap_or(first);
     let p_value = (first.p * model.m as f64).min(1.0);
     let half = t_two_sided(p, gls.dof) * gls.se;
+    let change = LevelChange {
+        y,
+        fs,
+        density,
+        sign,
+        level: p,
+    };
     let interval = (p_value < DETECTION_P)
-        .then(|| edge_time_interval(y, fs, density, at, INTERVAL_SEARCH * block, sign, p))
+        .then(|| change.interval(at, INTERVAL_SEARCH * block))
         .flatten();
     Some(Step {
         index: at,
@@ -65,19 +73,18 @@ pub fn step_from_scan(
         p_value,
         delta_bic: delta_bic(1.0, model.m as f64, p_value, first.t * first.t),
         window_s: block as f64 / fs,
-        time_interval_s: interval.map(|(a, b, _)| (a as f64 / fs, b as f64 / fs)),
-        time_interval_cut: interval.is_some_and(|i| i.2),
+        time_interval_s: interval.map(|i| i.seconds(fs)),
+        time_interval_cut: interval.is_some_and(|i| i.cut),
         method: StepMethod::Gls,
     })
 }
 
-/// The best single step of `y` under the noise `density` ([`step_from_scan`] with its own
+/// The best single step of `y` under the noise `density` ([`step_from_search`] with its own
 /// model and scan).
 pub fn step_under_model(y: &[f64], fs: f64, density: &dyn Fn(f64) -> f64, p: f64) -> Option<Step> {
     let model = IncrementModel::new(density, fs, y.len())?;
     let u = model.whitened(&model.increments(y))?;
-    let found = model.best_box(&u, super::excursion::MIN_BLOCKS)?;
-    step_from_scan(y, fs, density, &model, &u, &found, p)
+    step_from_search(&BoxSearch::new(y, fs, density, &model, &u)?, p)
 }
 
 #[cfg(test)]

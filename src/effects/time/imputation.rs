@@ -102,7 +102,13 @@ fn krige(gamma: &[f64; MAX_LAG + 1], bar: f64, offsets: &[isize]) -> Option<(Vec
     if offsets.is_empty() {
         return Some((vec![], bar));
     }
-    let c = |a: isize, b: isize| if a == b { bar } else { bar - gamma[a.abs_diff(b)] };
+    let c = |a: isize, b: isize| {
+        if a == b {
+            bar
+        } else {
+            bar - gamma[a.abs_diff(b)]
+        }
+    };
     let cols: Vec<Vec<f64>> = offsets
         .iter()
         .map(|&a| offsets.iter().map(|&b| c(a, b)).collect())
