@@ -31,6 +31,8 @@ use super::stats::{chi2_sf, delta_bic, norm_isf, norm_pdf, norm_sf, t_sf, t_two_
 pub const MIN_WINDOWS: usize = 16;
 /// Shortest window, samples.
 const MIN_W: usize = 8;
+/// Differences the Allan variance of a window is estimated from, at most.
+const VARIANCE_SAMPLES: usize = 1 << 20;
 /// Share of the largest D² left out of the Allan-variance estimate.
 const TRIM: f64 = 0.02;
 
@@ -131,8 +133,10 @@ fn scan(s: &[f64], w: usize) -> Option<Scan> {
     let wf = w as f64;
     let at = |k: usize| (s[k + w] - 2.0 * s[k] + s[k - w]) / wf;
     // The Allan variance from every (w/8)-th difference: neighbours w/8 apart are correlated by
-    // 0.81, so the thinned trimmed mean is as precise, at an eighth of the selection work.
-    let stride = (w / 8).max(1);
+    // 0.81, so the thinned trimmed mean is as precise, at an eighth of the selection work; and
+    // from at most VARIANCE_SAMPLES of them (0.2 % on the variance), so that the shortest
+    // windows of a long record do not allocate (and the kernel zero) a record-length buffer.
+    let stride = (w / 8).max((n - 2 * w) / VARIANCE_SAMPLES).max(1);
     let mut d2: Vec<f64> = (w..=n - w).step_by(stride).map(|k| at(k).powi(2)).collect();
     let keep = ((1.0 - TRIM) * d2.len() as f64).floor() as usize;
     if keep < 2 {
