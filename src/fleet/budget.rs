@@ -8,12 +8,13 @@
 //! **The estimate** ([`footprint_bytes`]) is a model of `analyze`'s measured peak resident memory:
 //! a base of [`BASE_BYTES`], every channel's samples as f64 (8 bytes each: the Allan statistics
 //! hold whole channels), and [`LOOP_BYTES_PER_SAMPLE`] per sample for each channel the model
-//! stage works on at once (one per core: the residual loop's copies, residuals and regressions of
-//! a channel). Measured on this project's 2-core machine (`/usr/bin/time -v`, peak RSS): 1 h ×
-//! 200 Hz × 6 channels 135 MB (model 119 MB), 2 h × 200 Hz × 3 channels 175 MB (model 183 MB),
-//! 13.5 h × 207 Hz × 3 channels (f32) 1.1 GB (model 1.36 GB). Rows come from the Parquet footer,
-//! from the sampled length of a CSV line, or from the file size over the stored width of a row
-//! (Arrow IPC, MCAP: an over-estimate where messages carry overhead).
+//! stage works on at once (one per core: the residual loop's copy of the channel and its
+//! corrections). Measured on this project's 2-core machine (`/usr/bin/time`, peak RSS) against
+//! the model: 1 h × 200 Hz × 6 channels 118 MB (model 131 MB), 2 h × 200 Hz × 3 channels 153 MB
+//! (177 MB), 13.5 h × 207 Hz × 3 channels (f32) 689 MB (937 MB), 24 h × 400 Hz × 7 channels
+//! 3.33 GB (4.20 GB): 9–36 % above, never below. Rows come from the Parquet footer, from the
+//! sampled length of a CSV line, or from the file size over the stored width of a row (Arrow IPC,
+//! MCAP: an over-estimate where messages carry overhead).
 
 use std::io::Read;
 use std::path::Path;
@@ -22,9 +23,9 @@ use std::sync::{Condvar, Mutex};
 use crate::io::{self, Format, OpenOptions};
 
 /// Resident memory of an analysis before any sample (binary, allocator, thread stacks).
-pub const BASE_BYTES: u64 = 24 << 20;
+pub const BASE_BYTES: u64 = 48 << 20;
 /// Per sample of each channel the model stage holds at once.
-pub const LOOP_BYTES_PER_SAMPLE: u64 = 56;
+pub const LOOP_BYTES_PER_SAMPLE: u64 = 32;
 
 /// Estimated peak memory of analysing `path`, or `None` when it cannot even be opened (its
 /// analysis will fail with the reason; it is admitted as if small).
@@ -217,7 +218,10 @@ mod tests {
                 "{ext} {stored:?}: {rows}"
             );
             let bytes = footprint_bytes(&path, &open, 2).unwrap();
-            assert_eq!(bytes, BASE_BYTES + (8 * 2 + 56 * 2) * rows as u64);
+            assert_eq!(
+                bytes,
+                BASE_BYTES + (8 * 2 + LOOP_BYTES_PER_SAMPLE * 2) * rows as u64
+            );
         }
     }
 }
