@@ -103,10 +103,13 @@ pub struct FileResult {
     pub analysis: Option<Vec<ChannelAnalysis>>,
 }
 
-/// Progress reports, in rows read; the CLI shows them as a bar on a terminal.
-pub trait Progress {
+/// Progress reports: rows read, then channels fitted; the CLI shows them as a bar on a terminal.
+/// `Sync`: the channels are fitted in parallel, and each reports as it ends.
+pub trait Progress: Sync {
     fn start(&self, _path: &Path) {}
     fn advance(&self, _rows: u64) {}
+    /// `done` of `of` channels fitted (called with 0 before the first).
+    fn fitted(&self, _done: usize, _of: usize) {}
 }
 
 /// No progress reporting.
@@ -266,6 +269,7 @@ pub fn run(
                 samples,
                 opts,
                 loop_cfg.as_ref(),
+                progress,
             );
             timings.fit_s = t.elapsed().as_secs_f64();
             Some(out)
@@ -300,8 +304,10 @@ fn fit_channels(
     samples: &[Vec<f64>],
     opts: &FitOptions,
     loop_cfg: Option<&LoopConfig>,
+    progress: &dyn Progress,
 ) -> Vec<ChannelAnalysis> {
     use rayon::prelude::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
     let aux: Vec<AuxSeries<'_>> = recording
         .channels
         .iter()
@@ -327,9 +333,16 @@ fn fit_channels(
             })
         })
         .collect();
+    let of = inputs.len();
+    let done = AtomicUsize::new(0);
+    progress.fitted(0, of);
     inputs
         .into_par_iter()
-        .map(|input| analysis::analyze_channel(input, &aux, opts, loop_cfg))
+        .map(|input| {
+            let a = analysis::analyze_channel(input, &aux, opts, loop_cfg);
+            progress.fitted(done.fetch_add(1, Ordering::SeqCst) + 1, of);
+            a
+        })
         .collect()
 }
 

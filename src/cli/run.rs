@@ -22,7 +22,7 @@ pub const EXIT_FATAL: i32 = 2;
 /// A progress bar on stderr when it is a terminal; nothing in a pipe or with --quiet.
 struct Bar {
     bar: Option<ProgressBar>,
-    index: std::cell::Cell<usize>,
+    index: std::sync::atomic::AtomicUsize,
     total: usize,
 }
 
@@ -36,7 +36,7 @@ impl Bar {
         });
         Bar {
             bar,
-            index: std::cell::Cell::new(0),
+            index: std::sync::atomic::AtomicUsize::new(0),
             total,
         }
     }
@@ -60,14 +60,18 @@ impl Bar {
 
 impl Progress for Bar {
     fn start(&self, path: &Path) {
-        self.index.set(self.index.get() + 1);
+        let index = self.index.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
         if let Some(b) = &self.bar {
             b.set_position(0);
+            b.set_message(format!("[{index}/{}] {}", self.total, path.display()));
+        }
+    }
+    fn fitted(&self, done: usize, of: usize) {
+        if let Some(b) = &self.bar {
+            let index = self.index.load(std::sync::atomic::Ordering::SeqCst);
             b.set_message(format!(
-                "[{}/{}] {}",
-                self.index.get(),
-                self.total,
-                path.display()
+                "[{index}/{}] fitting: {done} of {of} channels done",
+                self.total
             ));
         }
     }

@@ -11,7 +11,7 @@ use imunoise::fleet::{
     self, collect_inputs, fleet_step, plot_after_fleet, BatchConfig, FailOn, FileOutcome, Input,
     Layout, Lock, Observer, PlotPolicy, Shard, Spec, Status,
 };
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{ProgressBar, ProgressState, ProgressStyle};
 use serde_json::json;
 
 use super::args::{
@@ -247,26 +247,55 @@ fn job(a: ScreenArgs) -> Result<ScreenJob, UsageError> {
     })
 }
 
+/// Steps of the batch bar per file: it moves as a file's channels are fitted, not only when the
+/// file ends, so the ETA follows long files too.
+const STEPS_PER_FILE: u64 = 100;
+
 /// Progress over the whole batch on a terminal, and one stderr line per file.
 struct Report {
     bar: Option<ProgressBar>,
     quiet: bool,
+    /// Files finished, and the fitted share of each file in flight (by key).
+    done: std::sync::Mutex<(u64, std::collections::HashMap<String, f64>)>,
 }
 
 impl Report {
     fn new(total: usize, quiet: bool) -> Self {
         let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
-            let b = ProgressBar::new(total as u64);
+            let b = ProgressBar::new(total as u64 * STEPS_PER_FILE);
             b.set_style(
                 ProgressStyle::with_template(
-                    "{bar:30} {pos}/{len} files, {elapsed} elapsed, ETA {eta} {wide_msg}",
+                    "{bar:30} {files} files, {elapsed} elapsed, ETA {eta} {wide_msg}",
                 )
+                .map(|style| {
+                    style.with_key(
+                        "files",
+                        |state: &ProgressState, w: &mut dyn std::fmt::Write| {
+                            let len = state.len().unwrap_or(0) / STEPS_PER_FILE;
+                            let _ = write!(w, "{}/{len}", state.pos() / STEPS_PER_FILE);
+                        },
+                    )
+                })
                 .unwrap_or_else(|_| ProgressStyle::default_bar()),
             );
             b.enable_steady_tick(Duration::from_millis(500));
             b
         });
-        Report { bar, quiet }
+        Report {
+            bar,
+            quiet,
+            done: std::sync::Mutex::new((0, std::collections::HashMap::new())),
+        }
+    }
+
+    /// Sets the bar to the finished files plus the fitted shares of those in flight.
+    fn update(&self, change: impl FnOnce(&mut (u64, std::collections::HashMap<String, f64>))) {
+        let mut d = self.done.lock().unwrap_or_else(|e| e.into_inner());
+        change(&mut d);
+        if let Some(b) = &self.bar {
+            let partial: f64 = d.1.values().sum();
+            b.set_position(d.0 * STEPS_PER_FILE + (partial * STEPS_PER_FILE as f64) as u64);
+        }
     }
 
     fn line(&self, text: &str) {
@@ -284,11 +313,18 @@ impl Observer for Report {
         }
     }
 
+    fn progress(&self, input: &Input, fitted: f64) {
+        self.update(|d| {
+            d.1.insert(input.key.clone(), fitted.clamp(0.0, 0.99));
+        });
+    }
+
     fn finished(&self, input: &Input, outcome: &FileOutcome) {
         let path = input.path.display();
-        if let Some(b) = &self.bar {
-            b.inc(1);
-        }
+        self.update(|d| {
+            d.1.remove(&input.key);
+            d.0 += 1;
+        });
         match outcome {
             FileOutcome::Skipped { error } | FileOutcome::Adopted { error } => {
                 let what = if matches!(outcome, FileOutcome::Skipped { .. }) {

@@ -22,7 +22,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use crate::estimate::Backend;
-use crate::pipeline::{self, Inputs, Silent, Work};
+use crate::pipeline::{self, Inputs, Work};
 
 use super::budget::{footprint_bytes, Budget};
 use super::hash::file_identity;
@@ -107,10 +107,27 @@ impl FileOutcome {
     }
 }
 
-/// Told about every input as it starts and ends; called from the worker threads.
+/// Told about every input as it starts, as its channels are fitted, and as it ends; called from
+/// the worker threads.
 pub trait Observer: Sync {
     fn started(&self, _input: &Input) {}
+    /// The share (0–1) of the input's channels fitted so far.
+    fn progress(&self, _input: &Input, _fitted: f64) {}
     fn finished(&self, input: &Input, outcome: &FileOutcome);
+}
+
+/// An input's fitting progress, passed on to the batch's observer.
+struct FileProgress<'a> {
+    observer: &'a dyn Observer,
+    input: &'a Input,
+}
+
+impl pipeline::Progress for FileProgress<'_> {
+    fn fitted(&self, done: usize, of: usize) {
+        if of > 0 {
+            self.observer.progress(self.input, done as f64 / of as f64);
+        }
+    }
 }
 
 /// Counts of a shard's batch.
@@ -157,7 +174,7 @@ pub fn run_batch(
         }
         let input = mine[i];
         observer.started(input);
-        match process(cfg, input, backend, budget.as_ref()) {
+        match process(cfg, input, backend, budget.as_ref(), observer) {
             Ok(outcome) => {
                 {
                     let mut s = summary.lock().unwrap_or_else(|e| e.into_inner());
@@ -215,6 +232,7 @@ fn process(
     input: &Input,
     backend: &dyn Backend,
     budget: Option<&Budget>,
+    observer: &dyn Observer,
 ) -> Result<FileOutcome, ScreenError> {
     let part = cfg.layout.part(cfg.shard.index, &input.key);
     let identity = file_identity(&input.path);
@@ -263,7 +281,13 @@ fn process(
             input,
             format!("{}: {e}", input.path.display()),
         )],
-        Ok(_) => match pipeline::run(&input.path, cfg.inputs, cfg.work, backend, &Silent) {
+        Ok(_) => match pipeline::run(
+            &input.path,
+            cfg.inputs,
+            cfg.work,
+            backend,
+            &FileProgress { observer, input },
+        ) {
             Ok(result) => {
                 let records = ChannelRecord::from_result(input, &result);
                 let plot = match cfg.plots {
