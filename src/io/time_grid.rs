@@ -125,29 +125,40 @@ fn coherent_period(times: &[f64], rough_period: f64) -> f64 {
             return period;
         }
         let coherence = |p: f64| {
+            // sin and cos are periodic: no reduction modulo the period is needed (the angle
+            // reaches 2π·65 536 at most, where f64 keeps it to 1e-10 rad).
+            let scale = std::f64::consts::TAU / p;
             let (mut s, mut c) = (0.0, 0.0);
             for &t in head {
-                let a = std::f64::consts::TAU * ((t - t0) / p).rem_euclid(1.0);
-                s += a.sin();
-                c += a.cos();
+                let (sa, ca) = ((t - t0) * scale).sin_cos();
+                s += sa;
+                c += ca;
             }
             s * s + c * c
         };
-        // The peak's width in P is about P²/span; trial periods a fifth of that apart.
+        // The peak's width in P is about P²/span. Trial periods that far apart first (the best of
+        // them lies in the main lobe: within half a width of the peak the coherence keeps over
+        // half its height, while side lobes stay under a quarter), then a fifth of that apart
+        // around the best: the same answer as the fine grid over the whole range, with a third of
+        // its evaluations (this search was a sixth of reading a timed file).
         let resolution = period * period / span;
-        let trials = ((2.0 * half_width / (0.2 * resolution)).ceil() as usize).clamp(8, 400);
-        let (mut best_p, mut best) = (period, f64::NEG_INFINITY);
-        for k in 0..=trials {
-            let p = period - half_width + 2.0 * half_width * k as f64 / trials as f64;
-            if p <= 0.0 {
-                continue;
+        let search = |from: f64, to: f64, step: f64| {
+            let trials = (((to - from) / step).ceil() as usize).clamp(2, 400);
+            let (mut best_p, mut best) = (period, f64::NEG_INFINITY);
+            for k in 0..=trials {
+                let p = from + (to - from) * k as f64 / trials as f64;
+                if p <= 0.0 {
+                    continue;
+                }
+                let r = coherence(p);
+                if r > best {
+                    (best_p, best) = (p, r);
+                }
             }
-            let r = coherence(p);
-            if r > best {
-                (best_p, best) = (p, r);
-            }
-        }
-        period = best_p;
+            best_p
+        };
+        let coarse = search(period - half_width, period + half_width, resolution);
+        period = search(coarse - resolution, coarse + resolution, 0.2 * resolution);
         half_width = 0.5 * resolution;
         if w == finite.len() || window >= 1 << 16 {
             return period;
