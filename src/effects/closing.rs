@@ -37,7 +37,7 @@ use super::excursion::{
     excursion_under_model, remove_excursion, BoxSearch, Excursion, LevelChange,
 };
 use super::lines::{find_excess, Excess};
-use super::regression::IncrementModel;
+use super::regression::{IncrementModel, MAX_INCREMENTS};
 use super::residuals::{diagnose, Diagnostics};
 use super::shapes::{GaussMarkov1, Resonance};
 use super::shift::{step_from_search, step_under_model};
@@ -751,69 +751,118 @@ fn slow_candidates(
         });
     }
     // The drift and excursion searches regress on the same whitened increments: whitened once.
-    let increments = IncrementModel::new(&density, fs, y.len())
-        .and_then(|m| Some((m.whitened(&m.increments(y))?, m)));
-    let estimate = |density: &dyn Fn(f64) -> f64| drift_under_model(y, fs, density, p);
+    let increments = IncrementModel::for_series(&density, fs, y, MAX_INCREMENTS);
     let first = increments
         .as_ref()
-        .and_then(|(u, m)| drift_in(y, fs, m, u, p));
-    if let Some(first) = first {
-        let promising = first.p_value < REFINE_P;
-        let d = refined(state, fs, cfg, first, promising, &estimate, &|v, d| {
-            remove_drift(v, fs, d)
-        });
-        let s = d.clone();
-        out.push(Candidate {
-            delta_bic: d.delta_bic,
-            evidence: format!(
-                "time series: drift shape under the fitted noise model (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over the shapes tried)",
-                d.z, d.increments, d.block_s, d.p_value
-            ),
-            effect: Effect::Drift(d),
-            apply: Apply::Series(Box::new(move |y| remove_drift(y, fs, &s))),
-        });
-    }
+        .and_then(|(m, u)| drift_in(y, fs, m, u, p));
+    let estimate = |density: &dyn Fn(f64) -> f64| drift_under_model(y, fs, density, p);
+    out.extend(slow_candidate(state, fs, cfg, first, &estimate));
     // One scan of every box gives the best excursion and the best single step.
     let boxes = increments
         .as_ref()
-        .and_then(|(u, m)| BoxSearch::new(y, fs, &density, m, u));
-    let estimate = |density: &dyn Fn(f64) -> f64| step_under_model(y, fs, density, p);
+        .and_then(|(m, u)| BoxSearch::new(y, fs, &density, m, u));
     let first = boxes.as_ref().and_then(|b| step_from_search(b, p));
-    if let Some(first) = first {
-        let promising = first.p_value < REFINE_P;
-        let s = refined(state, fs, cfg, first, promising, &estimate, &|v, s| {
-            remove_step(v, s)
-        });
-        let applied = s.clone();
-        out.push(Candidate {
-            delta_bic: s.delta_bic,
-            evidence: format!(
-                "time series: the mean shifts at {:.1} s and stays, under the fitted noise model (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over the positions)",
-                s.time_s, s.z, increments.as_ref().map_or(0, |(_, m)| m.m), s.window_s, s.p_value
-            ),
-            effect: Effect::Step(s),
-            apply: Apply::Series(Box::new(move |y| remove_step(y, &applied))),
-        });
-    }
-    let estimate = |density: &dyn Fn(f64) -> f64| excursion_under_model(y, fs, density, p);
+    let estimate = |density: &dyn Fn(f64) -> f64| step_under_model(y, fs, density, p);
+    out.extend(slow_candidate(state, fs, cfg, first, &estimate));
     let first = boxes.as_ref().and_then(|b| b.excursion(p));
-    if let Some(first) = first {
-        let promising = first.p_value < REFINE_P;
-        let e = refined(state, fs, cfg, first, promising, &estimate, &|v, e| {
-            remove_excursion(v, e)
-        });
-        let s = e.clone();
-        out.push(Candidate {
-            delta_bic: e.delta_bic,
-            evidence: format!(
-                "time series: the mean leaves and returns, {:.1}–{:.1} s (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over {} boxes)",
-                e.start_s, e.end_s, e.z, e.increments, e.block_s, e.p_value, e.boxes
-            ),
-            effect: Effect::Excursion(e),
-            apply: Apply::Series(Box::new(move |y| remove_excursion(y, &s))),
-        });
-    }
+    let estimate = |density: &dyn Fn(f64) -> f64| excursion_under_model(y, fs, density, p);
+    out.extend(slow_candidate(state, fs, cfg, first, &estimate));
     out
+}
+
+/// A slow effect the time domain finds under the fitted noise model (a drift, a GLS step, an
+/// excursion): what [`slow_candidate`] needs to refine it and offer it.
+trait SlowEffect: Clone + 'static {
+    fn p_value(&self) -> f64;
+    fn delta_bic(&self) -> f64;
+    fn evidence(&self) -> String;
+    fn effect(self) -> Effect;
+    fn remove(&self, y: &mut Vec<f64>, fs: f64);
+}
+
+impl SlowEffect for Drift {
+    fn p_value(&self) -> f64 {
+        self.p_value
+    }
+    fn delta_bic(&self) -> f64 {
+        self.delta_bic
+    }
+    fn evidence(&self) -> String {
+        format!(
+            "time series: drift shape under the fitted noise model (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over the shapes tried)",
+            self.z, self.increments, self.block_s, self.p_value
+        )
+    }
+    fn effect(self) -> Effect {
+        Effect::Drift(self)
+    }
+    fn remove(&self, y: &mut Vec<f64>, fs: f64) {
+        remove_drift(y, fs, self);
+    }
+}
+
+impl SlowEffect for Step {
+    fn p_value(&self) -> f64 {
+        self.p_value
+    }
+    fn delta_bic(&self) -> f64 {
+        self.delta_bic
+    }
+    fn evidence(&self) -> String {
+        format!(
+            "time series: the mean shifts at {:.1} s and stays, under the fitted noise model (t = {:.1} on increments of {:.1} s, p = {:.1e} over the positions)",
+            self.time_s, self.z, self.window_s, self.p_value
+        )
+    }
+    fn effect(self) -> Effect {
+        Effect::Step(self)
+    }
+    fn remove(&self, y: &mut Vec<f64>, _fs: f64) {
+        remove_step(y, self);
+    }
+}
+
+impl SlowEffect for Excursion {
+    fn p_value(&self) -> f64 {
+        self.p_value
+    }
+    fn delta_bic(&self) -> f64 {
+        self.delta_bic
+    }
+    fn evidence(&self) -> String {
+        format!(
+            "time series: the mean leaves and returns, {:.1}–{:.1} s (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over {} boxes)",
+            self.start_s, self.end_s, self.z, self.increments, self.block_s, self.p_value, self.boxes
+        )
+    }
+    fn effect(self) -> Effect {
+        Effect::Excursion(self)
+    }
+    fn remove(&self, y: &mut Vec<f64>, _fs: f64) {
+        remove_excursion(y, self);
+    }
+}
+
+/// `first`, refined once by feasible GLS when its p-value is below [`REFINE_P`], as a candidate.
+fn slow_candidate<T: SlowEffect>(
+    state: &State,
+    fs: f64,
+    cfg: &LoopConfig,
+    first: Option<T>,
+    estimate: &dyn Fn(Density<'_>) -> Option<T>,
+) -> Option<Candidate> {
+    let first = first?;
+    let promising = first.p_value() < REFINE_P;
+    let e = refined(state, fs, cfg, first, promising, estimate, &|v, e: &T| {
+        e.remove(v, fs)
+    });
+    let applied = e.clone();
+    Some(Candidate {
+        delta_bic: e.delta_bic(),
+        evidence: e.evidence(),
+        effect: e.effect(),
+        apply: Apply::Series(Box::new(move |y| applied.remove(y, fs))),
+    })
 }
 
 /// The fit options for the many fits of a profile over an effect's shape parameters (a resonance's

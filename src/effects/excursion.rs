@@ -43,7 +43,7 @@
 //! ratio says, which a white-noise rule would miss. An interval that reaches the end of its
 //! search is cut there (`interval_cut`).
 
-use super::regression::{BoxScan, IncrementModel, Whitened};
+use super::regression::{BoxScan, IncrementModel, Whitened, MAX_INCREMENTS};
 use super::slow::DETECTION_P;
 use super::time::stats::{delta_bic, t_two_sided};
 
@@ -120,8 +120,7 @@ pub fn excursion_under_model(
     density: &dyn Fn(f64) -> f64,
     p: f64,
 ) -> Option<Excursion> {
-    let model = IncrementModel::new(density, fs, y.len())?;
-    let u = model.whitened(&model.increments(y))?;
+    let (model, u) = IncrementModel::for_series(density, fs, y, MAX_INCREMENTS)?;
     BoxSearch::new(y, fs, density, &model, &u)?.excursion(p)
 }
 
@@ -311,9 +310,7 @@ impl LevelChange<'_> {
         let from = at.saturating_sub(search);
         let to = (at + search).min(self.y.len());
         let local = &self.y[from..to];
-        let model =
-            IncrementModel::with_increments(self.density, self.fs, local.len(), EDGE_INCREMENTS)?;
-        let u = model.whitened(&model.increments(local))?;
+        let (model, u) = IncrementModel::for_series(self.density, self.fs, local, EDGE_INCREMENTS)?;
         let covered = (model.m + 1) * model.block;
         let step = (model.block / EDGE_STEPS_PER_BLOCK).max(1);
         // A step at k (local): the level from k on, to past the blocked samples.
@@ -411,7 +408,9 @@ mod tests {
     #[test]
     fn edge_intervals_cover_the_planted_edges() {
         let (a, b, size) = (60_000usize, 90_000usize, 0.1);
-        for (level, at_least) in [(0.6827, 0.55), (0.95, 0.85)] {
+        // At 1σ also at most 85 %: profiled on the whole record's blocks the intervals covered
+        // 89 % (the block means blur where in a block the edge lies).
+        for (level, at_least, at_most) in [(0.6827, 0.55, 0.85), (0.95, 0.85, 1.0)] {
             let (mut covered, mut edges, mut width) = (0, 0, 0.0);
             for seed in 0..40 {
                 let mut y = Rng::new(700 + seed).gauss_vec(180_000);
@@ -433,7 +432,7 @@ mod tests {
                 "level {level}: edges covered {covered}/{edges}, mean width {:.2} s",
                 width / edges as f64
             );
-            assert!(share >= at_least && share <= 1.0, "{share} at {level}");
+            assert!(share >= at_least && share <= at_most, "{share} at {level}");
         }
     }
 

@@ -206,6 +206,19 @@ impl IncrementModel {
         self.regress_whitened(&Whitened(self.whiten(d)), x, x_noise)
     }
 
+    /// The model for `y` under `density` with `y`'s increments whitened by it: what every
+    /// regression of one series on many regressors starts from. `None` as [`IncrementModel::new`].
+    pub fn for_series(
+        density: &dyn Fn(f64) -> f64,
+        fs: f64,
+        y: &[f64],
+        m: usize,
+    ) -> Option<(Self, Whitened)> {
+        let model = Self::with_increments(density, fs, y.len(), m)?;
+        let u = model.whitened(&model.increments(y))?;
+        Some((model, u))
+    }
+
     /// The increments of a series whitened once, for regressions of one series on many
     /// regressors (the drift shapes).
     pub fn whitened(&self, d: &[f64]) -> Option<Whitened> {

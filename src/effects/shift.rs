@@ -15,7 +15,7 @@
 //! [`LevelChange::interval`].
 
 use super::excursion::{box_increments, place_edge, BoxSearch, LevelChange};
-use super::regression::IncrementModel;
+use super::regression::{IncrementModel, MAX_INCREMENTS};
 use super::slow::DETECTION_P;
 use super::time::stats::{delta_bic, t_two_sided};
 use super::time::{Step, StepMethod};
@@ -82,8 +82,7 @@ pub fn step_from_search(search: &BoxSearch<'_>, p: f64) -> Option<Step> {
 /// The best single step of `y` under the noise `density` ([`step_from_search`] with its own
 /// model and scan).
 pub fn step_under_model(y: &[f64], fs: f64, density: &dyn Fn(f64) -> f64, p: f64) -> Option<Step> {
-    let model = IncrementModel::new(density, fs, y.len())?;
-    let u = model.whitened(&model.increments(y))?;
+    let (model, u) = IncrementModel::for_series(density, fs, y, MAX_INCREMENTS)?;
     step_from_search(&BoxSearch::new(y, fs, density, &model, &u)?, p)
 }
 

@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::regression::{
-    regress_series, white_noise_variance, Gls, IncrementModel, Regression, Whitened,
+    regress_series, white_noise_variance, Gls, IncrementModel, Regression, Whitened, MAX_INCREMENTS,
 };
 use super::time::stats::{delta_bic, mean_var, norm_isf, t_two_sided};
 use super::time::Coupling;
@@ -156,8 +156,7 @@ pub fn drift_under_model(
     p: f64,
 ) -> Option<Drift> {
     // A noiseless regressor: one blocking (the finest) for all shapes.
-    let model = IncrementModel::new(density, fs, y.len())?;
-    let d = model.whitened(&model.increments(y))?;
+    let (model, d) = IncrementModel::for_series(density, fs, y, MAX_INCREMENTS)?;
     drift_in(y, fs, &model, &d, p)
 }
 

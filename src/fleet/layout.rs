@@ -78,7 +78,12 @@ impl Layout {
         self.dir.join("fleet.html")
     }
     pub fn plots(&self, key: &str) -> PathBuf {
-        self.dir.join("plots").join(key)
+        self.plots_root().join(key)
+    }
+
+    /// The folder holding every input's plots.
+    pub fn plots_root(&self) -> PathBuf {
+        self.dir.join("plots")
     }
 
     /// The shard folders present, by index.

@@ -25,7 +25,8 @@ use super::record::Status;
 /// temporary folder beside it.
 pub fn write_file_plots(layout: &Layout, key: &str, result: &FileResult) -> Result<(), String> {
     let dir = layout.plots(key);
-    let parent = dir.parent().expect("plots/<key> has a parent");
+    let parent = layout.plots_root();
+    let parent = parent.as_path();
     std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
     let tmp = parent.join(format!(".tmp-{key}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
@@ -127,10 +128,7 @@ pub fn plot_after_fleet(
 /// Keys with a plot folder and the folder's age in seconds (temporary folders of interrupted
 /// writes included, under their own names, so that they are cleaned up too).
 fn plotted_keys(layout: &Layout) -> Vec<(String, f64)> {
-    let Some(parent) = layout.plots("x").parent().map(|p| p.to_path_buf()) else {
-        return vec![];
-    };
-    std::fs::read_dir(parent)
+    std::fs::read_dir(layout.plots_root())
         .into_iter()
         .flatten()
         .flatten()

@@ -131,14 +131,15 @@ pub fn find_spikes(y: &[f64], rate_hz: f64) -> Spikes {
         t,
     );
     let l_scale = (l_scale * l_scale + delta * delta / 4.0).sqrt();
+    // (Ascending: the prescreen scans in order.)
+    let excess_at: Vec<(usize, f64)> = linear_prescreen(y, PRESCREEN * l_scale)
+        .into_iter()
+        .map(|i| (i, median_residual_at(y, i)))
+        .filter(|(_, r)| r.abs() > (t - 1.0) * sigma)
+        .collect();
     let mut candidates = vec![false; n];
-    let mut excess_at = std::collections::BTreeMap::new();
-    for i in linear_prescreen(y, PRESCREEN * l_scale) {
-        let r = median_residual_at(y, i);
-        if r.abs() > (t - 1.0) * sigma {
-            candidates[i] = true;
-            excess_at.insert(i, r);
-        }
+    for &(i, _) in &excess_at {
+        candidates[i] = true;
     }
     // Each candidate is confirmed on the linear residual with the other candidates left out of
     // its neighbours.
@@ -156,7 +157,7 @@ pub fn find_spikes(y: &[f64], rate_hz: f64) -> Spikes {
     }
     let limit = t * sigma;
     let ln_n = (n as f64).ln();
-    for (&i, &r) in &excess_at {
+    for &(i, r) in &excess_at {
         let v = linear_residual_at(y, &candidates, i);
         if v.abs() > limit {
             out.indices.push(i);

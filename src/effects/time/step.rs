@@ -54,7 +54,7 @@ pub struct Step {
     /// The window length w·τ₀ of the best evidence.
     pub window_s: f64,
     /// Profile-likelihood interval of the step's time, s, under the fitted noise model (set by
-    /// the residual loop, which has the model: [`crate::effects::excursion::edge_time_interval`]);
+    /// the residual loop, which has the model: [`crate::effects::excursion::LevelChange::interval`]);
     /// `None` where it was not computed.
     pub time_interval_s: Option<(f64, f64)>,
     /// That interval reached the end of its search and was cut there.
