@@ -267,7 +267,7 @@ fn process(
         let a = b.admit(bytes);
         if a.over {
             notes.push(format!(
-                "estimated {} MB, over --memory-budget {} MB: analysed alone",
+                "estimated {} MiB, over --memory-budget {} MiB: analysed alone",
                 bytes >> 20,
                 b.limit() >> 20
             ));
