@@ -13,6 +13,7 @@ pub mod fleet;
 pub mod gpu;
 pub mod io;
 pub mod memo;
+pub mod memory;
 pub mod model;
 pub mod pipeline;
 pub mod psd;

@@ -3,5 +3,6 @@
 mod cli;
 
 fn main() {
+    imunoise::memory::tune_allocator();
     std::process::exit(cli::main());
 }

@@ -326,7 +326,7 @@ fn process(
     write_part(&part, &records, &meta)?;
     if admission.is_none() {
         // (An admission does this when it is dropped.)
-        super::budget::release_freed_memory();
+        crate::memory::release_freed_memory();
     }
     drop(admission);
     Ok(FileOutcome::Computed {

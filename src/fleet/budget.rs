@@ -16,11 +16,10 @@
 //! sampled length of a CSV line, or from the file size over the stored width of a row (Arrow IPC,
 //! MCAP: an over-estimate where messages carry overhead).
 
-use std::io::Read;
 use std::path::Path;
 use std::sync::{Condvar, Mutex};
 
-use crate::io::{self, Format, OpenOptions};
+use crate::io::{self, OpenOptions};
 
 /// Resident memory of an analysis before any sample (binary, allocator, thread stacks).
 pub const BASE_BYTES: u64 = 48 << 20;
@@ -32,61 +31,9 @@ pub const LOOP_BYTES_PER_SAMPLE: u64 = 32;
 pub fn footprint_bytes(path: &Path, open: &OpenOptions, cores: usize) -> Option<u64> {
     let rec = io::open(path, open).ok()?;
     let channels = rec.channels.len() as u64;
-    let rows = estimated_rows(path, &rec)?;
+    let rows = rec.estimated_rows()?;
     let concurrent = channels.min(cores.max(1) as u64);
     Some(BASE_BYTES + 8 * rows * channels + LOOP_BYTES_PER_SAMPLE * rows * concurrent)
-}
-
-fn estimated_rows(path: &Path, rec: &io::Recording) -> Option<u64> {
-    let size = std::fs::metadata(path).ok()?.len();
-    match rec.format {
-        Format::Parquet => {
-            let file = std::fs::File::open(path).ok()?;
-            let b = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file)
-                .ok()?;
-            Some(b.metadata().file_metadata().num_rows().max(0) as u64)
-        }
-        Format::Csv => {
-            // The mean length of the lines in the first 64 KiB.
-            let mut head = Vec::with_capacity(1 << 16);
-            std::fs::File::open(path)
-                .ok()?
-                .take(1 << 16)
-                .read_to_end(&mut head)
-                .ok()?;
-            let lines = head.iter().filter(|b| **b == b'\n').count().max(1) as u64;
-            Some(size * lines / head.len().max(1) as u64)
-        }
-        _ => {
-            let row: u64 = rec
-                .schema
-                .fields()
-                .iter()
-                .map(|f| f.data_type().primitive_width().unwrap_or(8) as u64)
-                .sum();
-            Some(size / row.max(1))
-        }
-    }
-}
-
-/// Hands the memory freed by a finished analysis back to the system.
-///
-/// glibc's allocator keeps an arena per thread that has allocated, and keeps what a thread freed
-/// for that thread's next allocation: two workers that analyse one file after the other still
-/// held two files' peaks (measured: a budget of one file at a time with two workers peaked at
-/// 353 MB, one worker 206 MB), so no budget could bound the batch. `malloc_trim` returns the
-/// free pages of every arena. Elsewhere (other C libraries) a no-op.
-pub fn release_freed_memory() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    {
-        extern "C" {
-            fn malloc_trim(pad: usize) -> std::ffi::c_int;
-        }
-        // SAFETY: malloc_trim takes no pointer, only a padding size, and is thread-safe.
-        unsafe {
-            malloc_trim(0);
-        }
-    }
 }
 
 /// Bytes admitted at once; waits for room.
@@ -137,7 +84,7 @@ impl Budget {
 
 impl Drop for Admission<'_> {
     fn drop(&mut self) {
-        release_freed_memory();
+        crate::memory::release_freed_memory();
         let mut held = self
             .budget
             .in_flight
@@ -212,7 +159,7 @@ mod tests {
                 ..Default::default()
             };
             let rec = io::open(&path, &open).unwrap();
-            let rows = estimated_rows(&path, &rec).unwrap() as f64;
+            let rows = rec.estimated_rows().unwrap() as f64;
             assert!(
                 (rows / 30_000.0 - 1.0).abs() < 0.05,
                 "{ext} {stored:?}: {rows}"

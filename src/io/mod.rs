@@ -297,6 +297,44 @@ impl Block {
 }
 
 impl Recording {
+    /// The number of data rows, read from the footer where the format stores it (Parquet), else
+    /// estimated from the file size: the mean line length of the first 64 KiB (CSV) or the width of a
+    /// row of the schema's columns (Arrow IPC, MCAP; an upper bound for Arrow, whose file also holds
+    /// the schema and batch headers).
+    pub fn estimated_rows(&self) -> Option<u64> {
+        let path = &self.path;
+        let size = std::fs::metadata(path).ok()?.len();
+        match self.format {
+            Format::Parquet => {
+                let file = std::fs::File::open(path).ok()?;
+                let b =
+                    ::parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file)
+                        .ok()?;
+                Some(b.metadata().file_metadata().num_rows().max(0) as u64)
+            }
+            Format::Csv => {
+                // The mean length of the lines in the first 64 KiB.
+                let mut head = Vec::with_capacity(1 << 16);
+                std::io::Read::read_to_end(
+                    &mut std::io::Read::take(std::fs::File::open(path).ok()?, 1 << 16),
+                    &mut head,
+                )
+                .ok()?;
+                let lines = head.iter().filter(|b| **b == b'\n').count().max(1) as u64;
+                Some(size * lines / head.len().max(1) as u64)
+            }
+            _ => {
+                let row: u64 = self
+                    .schema
+                    .fields()
+                    .iter()
+                    .map(|f| f.data_type().primitive_width().unwrap_or(8) as u64)
+                    .sum();
+                Some(size / row.max(1))
+            }
+        }
+    }
+
     /// Streams the recording's rows, block by block.
     pub fn blocks(&self) -> Result<BlockReader, InputError> {
         let mut projection: Vec<usize> = Vec::new();
