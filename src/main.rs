@@ -3,6 +3,5 @@
 mod cli;
 
 fn main() {
-    imunoise::memory::tune_allocator();
     std::process::exit(cli::main());
 }

@@ -177,10 +177,8 @@ pub fn run(
         .welch
         .as_ref()
         .map(|w| backend.welch(&w.plan, recording.rate_hz, n_channels));
-    let mut series: Option<Vec<Vec<f64>>> = work
-        .avar
-        .as_ref()
-        .map(|_| (0..n_channels).map(|_| series_buffer(&recording)).collect());
+    let mut series: Option<Vec<Vec<f64>>> =
+        work.avar.as_ref().map(|_| vec![Vec::new(); n_channels]);
     let mut cleaner = Cleaner::new(&recording, inputs.quality);
     let mut consume = |chunk: crate::quality::SampleChunk| {
         if chunk.is_empty() {
@@ -192,7 +190,7 @@ pub fn run(
         }
         if let Some(all) = series.as_mut() {
             for (dst, src) in all.iter_mut().zip(chunk.channels) {
-                if dst.capacity() == 0 {
+                if dst.is_empty() {
                     *dst = src;
                 } else {
                     dst.extend_from_slice(&src);
@@ -430,17 +428,4 @@ fn too_short(recording: &Recording, statistic: Statistic, m: u64, needed: u64, n
         available: n as u64,
     }
     .into()
-}
-
-/// An empty buffer for one channel of the whole recording: sized and advised onto huge pages up
-/// front where the file says how many rows it holds (Arrow IPC files and Parquet: the footer, or
-/// the size over the row width), else empty and grown as the rows arrive (a CSV's estimate may be
-/// far off; an Arrow stream or MCAP file may hold much else).
-fn series_buffer(recording: &io::Recording) -> Vec<f64> {
-    match recording.format {
-        io::Format::ArrowFile | io::Format::Parquet => recording
-            .estimated_rows()
-            .map_or_else(Vec::new, |rows| crate::memory::with_capacity(rows as usize)),
-        _ => Vec::new(),
-    }
 }
