@@ -326,7 +326,7 @@ impl Candidate {
 }
 
 /// A correction of the series.
-type Correction = Box<dyn Fn(&mut Vec<f64>)>;
+type Correction = Box<dyn Fn(&mut Vec<f64>) + Send>;
 
 enum Apply {
     /// Correct the series with this closure.
@@ -487,7 +487,12 @@ fn propose(
     let mut out = Vec::new();
     let y = &state.y;
 
-    let spikes = find_spikes(y, fs);
+    // The time-domain detectors are independent: run side by side, so that a channel that is
+    // analysed alone (the last of three on two cores) still uses every core.
+    let ((spikes, step), slow) = rayon::join(
+        || rayon::join(|| find_spikes(y, fs), || find_step(y, fs, p)),
+        || slow_candidates(state, fs, aux, cfg, p),
+    );
     if !spikes.indices.is_empty() {
         let s = spikes.clone();
         out.push(Candidate {
@@ -502,7 +507,7 @@ fn propose(
             apply: Apply::Series(Box::new(move |y| remove_spikes(y, &s))),
         });
     }
-    if let Some(mut step) = find_step(y, fs, p) {
+    if let Some(mut step) = step {
         // Its time's interval under the fitted noise, for a step that may be kept, searched over
         // four of its scan windows either side.
         if step.delta_bic < 0.0 {
@@ -533,7 +538,7 @@ fn propose(
             apply: Apply::Series(Box::new(move |y| remove_step(y, &s))),
         });
     }
-    out.extend(slow_candidates(state, fs, aux, cfg, p));
+    out.extend(slow);
 
     let Some(spectrum) = &state.spectrum else {
         return out;
@@ -772,7 +777,7 @@ fn slow_candidates(
 
 /// A slow effect the time domain finds under the fitted noise model (a drift, a GLS step, an
 /// excursion): what [`slow_candidate`] needs to refine it and offer it.
-trait SlowEffect: Clone + 'static {
+trait SlowEffect: Clone + Send + 'static {
     fn p_value(&self) -> f64;
     fn delta_bic(&self) -> f64;
     fn evidence(&self) -> String;
