@@ -161,7 +161,13 @@ fn scan(s: &[f64], w: usize, d2: &mut Vec<f64>) -> Option<Scan> {
     // scans were a fifth of the loop's time on 10⁷-sample records).
     let coarse = (w / 16).max(1);
     let k0 = largest_difference(s, w, w, n - w, coarse);
-    let k = largest_difference(s, w, k0.saturating_sub(coarse).max(w), (k0 + coarse).min(n - w), 1);
+    let k = largest_difference(
+        s,
+        w,
+        k0.saturating_sub(coarse).max(w),
+        (k0 + coarse).min(n - w),
+        1,
+    );
     let dk = &at(k);
     let z = dk / sd;
     let nu = (n / w) as f64;
