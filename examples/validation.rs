@@ -16,6 +16,8 @@ use serde_json::json;
 
 const FS: f64 = 100.0;
 const FIRST_SEED: u64 = 900_000;
+/// The planted resonance: f₀ (Hz), Q, σ (rad/s).
+const RESONANCE: (f64, f64, f64) = (8.0, 20.0, 1.5e-4);
 /// Outliers planted in the outlier case (1 % of a 1800-s record at 100 Hz).
 const OUTLIERS: usize = 1800;
 /// 10σ of 10-s means of the white noise: 10·N/√10 s.
@@ -47,6 +49,11 @@ struct Tally {
     /// Excursions found: how often each edge's interval covered the planted time, and the
     /// interval widths (s).
     edges_found: usize,
+    /// Resonances found: how often the 1σ intervals of f₀, Q and σ covered the planted values, and
+    /// the ratios of the estimates to them.
+    resonances_found: usize,
+    resonance_covered: [usize; 3],
+    resonance_ratios: [Vec<f64>; 3],
     edge_covered: [usize; 2],
     edge_widths: Vec<f64>,
     runs: usize,
@@ -157,6 +164,14 @@ fn main() {
                 "sinusoids": [{ "amplitude": 3e-4, "freq_hz": 12.0,
                     "wander": { "freq_wander_hz": 0.05, "amplitude_wander": 0.2, "wander_tc_s": 10.0 } }] }),
             expect: Some("narrowband"),
+            seconds: None,
+            rate: None,
+        },
+        Case {
+            name: "resonance 8 Hz, Q 20, σ 1.5e-4 rad/s (peak ≈ 30× floor)",
+            filtered: false,
+            extra: json!({ "resonances": [{ "f0_hz": RESONANCE.0, "q": RESONANCE.1, "sigma": RESONANCE.2 }] }),
+            expect: Some("resonance"),
             seconds: None,
             rate: None,
         },
@@ -280,6 +295,30 @@ fn main() {
                         tally.edge_widths.push(b - a);
                     }
                 }
+                if let imunoise::effects::Effect::Resonance {
+                    f0_hz,
+                    f0_lo,
+                    f0_hi,
+                    q,
+                    q_lo,
+                    q_hi,
+                    sigma,
+                } = &s.effect
+                {
+                    if case.expect == Some("resonance") {
+                        tally.resonances_found += 1;
+                        let (f0_t, q_t, s_t) = RESONANCE;
+                        let checks = [
+                            (*f0_hz, *f0_lo, *f0_hi, f0_t),
+                            (*q, *q_lo, *q_hi, q_t),
+                            (sigma.value, sigma.lo, sigma.hi, s_t),
+                        ];
+                        for (k, (v, lo, hi, t)) in checks.into_iter().enumerate() {
+                            tally.resonance_covered[k] += usize::from(lo <= t && t <= hi);
+                            tally.resonance_ratios[k].push(v / t);
+                        }
+                    }
+                }
                 if let imunoise::effects::Effect::Excursion(e) = &s.effect {
                     tally.edges_found += 1;
                     for (k, (i, truth)) in [(e.start_interval_s, 600.0), (e.end_interval_s, 900.0)]
@@ -365,6 +404,19 @@ fn main() {
                 tally.edges_found,
                 pct(tally.edge_covered[0], tally.edges_found),
                 median(&mut tally.edge_widths)
+            ));
+        } else if tally.resonances_found > 0 {
+            let [rf, rq, rs] = &mut tally.resonance_ratios;
+            edge_notes.push(format!(
+                "{}: of {} resonances found, the 1σ interval covers f₀ in {}, Q in {}, σ in {}; median ratios to the truth f₀ {:.4}, Q {:.3}, σ {:.3}.",
+                case.name,
+                tally.resonances_found,
+                pct(tally.resonance_covered[0], tally.resonances_found),
+                pct(tally.resonance_covered[1], tally.resonances_found),
+                pct(tally.resonance_covered[2], tally.resonances_found),
+                median(rf),
+                median(rq),
+                median(rs)
             ));
         } else if tally.edges_found > 0 && case.expect == Some("excursion") {
             edge_notes.push(format!(

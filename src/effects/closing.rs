@@ -933,31 +933,71 @@ fn golden(g: &mut dyn FnMut(f64) -> f64, mut a: f64, mut b: f64, iters: usize) -
     }
 }
 
-/// The range of `xs` whose score lies within `threshold` of the best (a profile interval), and
-/// the conditional effect intervals of those points joined.
+/// The profile interval of a parameter, and the conditional effect intervals of the points inside it
+/// joined. `points` are (parameter, score, effect) at trial values; the interval's ends are where
+/// the score crosses `best + threshold`, interpolated between the last point inside and the first
+/// outside on each side, linearly in √(score − best) (which a locally quadratic profile makes
+/// linear in the parameter) and in the parameter itself (`log`: in its logarithm). A side without a
+/// point outside ends at its last point inside. The ends of the points inside alone were too
+/// narrow: the trial grid is a twelfth of a half-power width apart, about the interval's own width,
+/// and the resonance's f₀ interval covered the truth in 16 % of 50 seeds, Q's in 20 %.
 fn profile_range(
     points: &[(f64, f64, Option<EffectEstimate>)],
     best: f64,
     threshold: f64,
+    log: bool,
 ) -> (f64, f64, Option<(f64, f64)>) {
-    let inside: Vec<&(f64, f64, Option<EffectEstimate>)> =
-        points.iter().filter(|p| p.1 <= best + threshold).collect();
-    let lo = inside.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
-    let hi = inside.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
-    let sigma = inside
+    let to = |x: f64| if log { x.ln() } else { x };
+    let from = |x: f64| if log { x.exp() } else { x };
+    let mut sorted: Vec<(f64, f64)> = points
         .iter()
+        .filter(|p| p.0.is_finite() && p.1.is_finite() && (!log || p.0 > 0.0))
+        .map(|p| (to(p.0), (p.1 - best).max(0.0).sqrt()))
+        .collect();
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let edge = threshold.max(0.0).sqrt();
+    let inside: Vec<usize> = (0..sorted.len()).filter(|&i| sorted[i].1 <= edge).collect();
+    let (Some(&first), Some(&last)) = (inside.first(), inside.last()) else {
+        return (f64::INFINITY, f64::NEG_INFINITY, None);
+    };
+    let crossing = |i: usize, j: usize| {
+        let ((xi, ri), (xj, rj)) = (sorted[i], sorted[j]);
+        if rj > ri {
+            xi + (xj - xi) * (edge - ri) / (rj - ri)
+        } else {
+            xi
+        }
+    };
+    let lo = if first > 0 {
+        crossing(first, first - 1)
+    } else {
+        sorted[first].0
+    };
+    let hi = if last + 1 < sorted.len() {
+        crossing(last, last + 1)
+    } else {
+        sorted[last].0
+    };
+    let sigma = points
+        .iter()
+        .filter(|p| p.1 <= best + threshold)
         .filter_map(|p| p.2)
         .fold(None, |acc: Option<(f64, f64)>, e| {
             Some(acc.map_or((e.lo, e.hi), |(l, h)| (l.min(e.lo), h.max(e.hi))))
         });
-    (lo, hi, sigma)
+    (from(lo), from(hi), sigma)
 }
 
 /// A resonance at an excess too wide to be a line. Q is optimised (golden section on log Q
 /// within ×/÷ 8 of the excess's f/width), then f₀ (within ± one half-power width), then Q again;
-/// f₀ and Q get profile-likelihood intervals (the spectrum score within the χ²₁ quantile of the
+/// f₀ and Q get likelihood intervals (the spectrum score within the χ²₁ quantile of the
 /// confidence, times the fit's dispersion, of its best: the score is −2 ln L plus a constant
-/// penalty), and σ the union of its conditional intervals over both profiles.
+/// penalty; σ and the base terms refitted at each trial point, the other of f₀ and Q held at its
+/// optimum, which a Lorentzian's nearly uncorrelated centre and width allow), ends interpolated
+/// between trial points ([`profile_range`]), and σ the union of its conditional intervals over both.
+/// Measured over 50 seeds of a 30-min record (8 Hz, Q 20, peak ≈ 30× the floor;
+/// `validation/results.md`): 1σ coverage f₀ 64 %, σ 66 %, Q 38 % (Q reads 5 % low at that length,
+/// 1 % high on 2-h records).
 fn resonance_candidate(
     state: &State,
     e: &Excess,
@@ -1008,24 +1048,34 @@ fn resonance_candidate(
     );
     let (lq, best) = by_q(f0, &mut q_points);
     q = lq.exp();
-    // Profile grids around the optimum, for the intervals.
+    // Profile grids around the optimum, for the intervals: f₀ at the final Q only (the golden
+    // search's points were at the first Q, a slice offset by the change of Q, which made the
+    // optimum an isolated point of the profile), a 24th of a half-power width apart within half a
+    // width and coarser beyond; Q a twelfth of a decade apart (its golden-search points at the
+    // final f₀ stay).
+    f_points.clear();
+    let f_steps: Vec<f64> = (-12..=12)
+        .map(|k| f64::from(k) / 24.0)
+        .chain([-2.0, -1.5, -1.0, -0.75, 0.75, 1.0, 1.5, 2.0])
+        .collect();
     let grid: Vec<_> = (-12..=12)
         .into_par_iter()
         .map(|k| {
             let qk = q * 10f64.powf(f64::from(k) / 12.0);
             let (sq, fq) = fit_at(f0, qk);
-            let fk = f0 + f64::from(k) / 12.0 * (f0 / q);
-            let (sf, ff) = fit_at(fk, q);
-            (
-                (qk, sq, fq.and_then(|f| f.effect)),
-                (fk, sf, ff.and_then(|f| f.effect)),
-            )
+            (qk, sq, fq.and_then(|f| f.effect))
         })
         .collect();
-    for (qp, fp) in grid {
-        q_points.push(qp);
-        f_points.push(fp);
-    }
+    q_points.extend(grid);
+    let grid: Vec<_> = f_steps
+        .into_par_iter()
+        .map(|step| {
+            let fk = f0 + step * (f0 / q);
+            let (sf, ff) = fit_at(fk, q);
+            (fk, sf, ff.and_then(|f| f.effect))
+        })
+        .collect();
+    f_points.extend(grid);
     // The profile intervals compare restricted fits with the best restricted score; the
     // candidate's own fit at the optimum has every base term allowed.
     let best = q_points
@@ -1042,8 +1092,8 @@ fn resonance_candidate(
         .as_ref()
         .map_or(1.0, |f| f.lack_of_fit.inflation.powi(2));
     let threshold = norm_isf((1.0 - p) / 2.0).powi(2) * dispersion;
-    let (q_lo, q_hi, sq) = profile_range(&q_points, best, threshold);
-    let (f0_lo, f0_hi, sf) = profile_range(&f_points, best, threshold);
+    let (q_lo, q_hi, sq) = profile_range(&q_points, best, threshold, true);
+    let (f0_lo, f0_hi, sf) = profile_range(&f_points, best, threshold, false);
     for (lo, hi) in [sq, sf].into_iter().flatten() {
         (sigma.lo, sigma.hi) = (sigma.lo.min(lo), sigma.hi.max(hi));
     }
@@ -1185,4 +1235,58 @@ fn gauss_markov_candidate(state: &State, fs: f64, cfg: &LoopConfig, p: f64) -> O
             best.spectrum.clone(),
         ))),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A quadratic profile (score − best = ((x − x₀)/s)²) sampled at its optimum and on grids as
+    /// coarse as the interval: the interpolated ends are x₀ ± s·√threshold exactly, where the
+    /// points inside alone would give a narrower range; in log space for a scale parameter.
+    #[test]
+    fn profile_interval_ends_are_interpolated_between_trial_points() {
+        let (x0, s, best) = (8.0, 0.01, -1000.0);
+        let score = |x: f64| best + ((x - x0) / s).powi(2);
+        for step in [0.004, 0.007, 0.013] {
+            // The optimum is among the points (the loop's searches end there), the grid is not
+            // centred on it.
+            let points: Vec<_> = (-6..=6)
+                .map(|k| x0 + 0.3 * step + f64::from(k) * step)
+                .chain([x0])
+                .map(|x| (x, score(x), None))
+                .collect();
+            let best_seen = points.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+            for threshold in [1.0, 4.0] {
+                let (lo, hi, _) = profile_range(&points, best, threshold, false);
+                let half = s * threshold.sqrt();
+                assert!((lo - (x0 - half)).abs() < 1e-9, "step {step}: lo {lo}");
+                assert!((hi - (x0 + half)).abs() < 1e-9, "step {step}: hi {hi}");
+                // Relative to the best point seen (above the true minimum), no narrower.
+                let (l2, h2, _) = profile_range(&points, best_seen, threshold, false);
+                assert!(l2 <= lo + 1e-12 && h2 >= hi - 1e-12);
+            }
+        }
+        // Q-like: quadratic in ln q.
+        let q_score = |q: f64| best + ((q / 20.0).ln() / 0.08).powi(2);
+        let points: Vec<_> = (-12..=12)
+            .map(|k| 20.0 * 10f64.powf(f64::from(k) / 12.0 + 0.01))
+            .chain([20.0])
+            .map(|q| (q, q_score(q), None))
+            .collect();
+        let (lo, hi, _) = profile_range(&points, best, 1.0, true);
+        assert!((lo / (20.0 * (-0.08f64).exp()) - 1.0).abs() < 1e-9, "{lo}");
+        assert!((hi / (20.0 * 0.08f64.exp()) - 1.0).abs() < 1e-9, "{hi}");
+        // No point inside: an empty range; the side without a point outside ends at its last.
+        assert_eq!(
+            profile_range(&[(1.0, best + 5.0, None)], best, 1.0, false).0,
+            f64::INFINITY
+        );
+        let one_sided: Vec<_> = [7.99, 8.0, 8.005]
+            .iter()
+            .map(|&x| (x, score(x), None))
+            .collect();
+        let (lo, hi, _) = profile_range(&one_sided, best, 1.0, false);
+        assert!((lo - 7.99).abs() < 1e-12 && hi == 8.005, "{lo} {hi}");
+    }
 }

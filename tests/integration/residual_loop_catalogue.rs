@@ -175,9 +175,9 @@ fn check_resonance(o: &LoopOutcome, f0: f64, q_true: f64, sigma_true: f64) {
         "resonance f0 {f0_hz:.4} [{f0_lo:.4}, {f0_hi:.4}] (truth {f0}), q {q:.2} [{q_lo:.2}, {q_hi:.2}] (truth {q_true}), σ {:.4e} [{:.4e}, {:.4e}] (truth {sigma_true:.4e})",
         sigma.value, sigma.lo, sigma.hi
     );
-    // Centre within a quarter of the half-power width f0/q; q within one step (×1.4) of the
-    // loop's five-point q profile; σ within 10 %. The σ interval is not checked: it is the
-    // spectrum fit's at the profiled f0 and q, blind to their uncertainty (see the report).
+    // Centre within a quarter of the half-power width f0/q; q within ×1.4; σ within 10 %. The
+    // intervals' coverage is measured over 50 seeds by `validation/run.sh` (f₀ 64 %, Q 38 %,
+    // σ 66 % at 1σ on 30-min records), not on one record.
     assert!((f0_hz - f0).abs() < 0.25 * f0 / q_true, "f0 = {f0_hz}");
     assert!(*q > q_true / 1.4 && *q < q_true * 1.4, "q = {q}");
     assert!((sigma.value / sigma_true - 1.0).abs() < 0.1, "{sigma:?}");
