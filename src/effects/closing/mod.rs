@@ -1,0 +1,668 @@
+//! The loop that closes the model: fit, look at what is left, trace it to an effect, add the
+//! effect, refit everything, keep it only if the information criterion improves, repeat.
+//!
+//! Each round every candidate of the catalogue is tried on the current state and the one with the
+//! lowest ΔBIC below [`ADMIT_BIC`] (−6) is taken:
+//! - time-domain effects: spikes and a bias step ([`super::time`]), coupling to each aux channel
+//!   (temperature) and a drift shape (settling, curvature), both regressed under the fitted noise
+//!   model ([`super::slow`]), an excursion (the mean leaving and coming back, every box of blocks
+//!   regressed under the same model: [`super::excursion`]), and a sinusoid at each line the raw spectrum shows over the model
+//!   ([`super::lines`]); they are removed from the series, and the spectrum and the Allan variance
+//!   are recomputed (on the CPU) and refitted. Their ΔBIC is the time-domain one the detectors
+//!   report (an honest effective sample count, search-corrected); a coupling, a drift or an
+//!   excursion is proposed only when its family-wise p-value is below [`DETECTION_P`] as well;
+//! - stochastic effects ([`super::shapes`]): a first-order Gauss–Markov process (profiled over its
+//!   correlation time) and a resonance (at an excess too wide to be a line); they enter both fits
+//!   as one more column fitted with the base terms. Their ΔBIC is the sum over the two domains of
+//!   the change of the best candidate's score, with one more parameter per shape parameter; where
+//!   the spectrum fit's band can see the effect its share must itself be negative (its bands are
+//!   close to independent), where it cannot (a Gauss–Markov knee below its lowest band) only the
+//!   Allan domain votes. One stochastic effect at most: the fitting engine has one effect column.
+//!
+//! The loop stops when no candidate improves the criterion by that much, or after [`MAX_STEPS`]
+//! additions.
+//! Every step records the error before and after (χ²/dof and RMS log residual in both domains).
+
+use std::borrow::Cow;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::avar::{compute, Confidence, Deviations, Statistic, TauGrid};
+use crate::model::{
+    detect_bandwidth, fit_avar_with, fit_psd_with, Bandwidth, EffectEstimate, EffectShape,
+    FitOptions, NoiseFit, Term,
+};
+use crate::psd::{log_bin, welch, BinnedPsd, Psd, WelchConfig};
+
+use super::excursion::{
+    excursion_under_model, remove_excursion, BoxSearch, Excursion, LevelChange,
+};
+use super::lines::{find_excess, Excess};
+use super::regression::{IncrementModel, MAX_INCREMENTS};
+use super::residuals::{diagnose, Diagnostics};
+use super::shapes::{GaussMarkov1, Resonance};
+use super::shift::{step_from_search, step_under_model};
+use super::slow::{
+    coupling_under_model, drift_in, drift_under_model, remove_drift, Drift, DETECTION_P,
+};
+use super::time::stats::norm_isf;
+use super::time::{
+    find_spikes, find_step, fit_coupling, fit_sinusoid, measure_narrowband, remove_coupling,
+    remove_narrowband, remove_sinusoid, remove_spikes, remove_step, split_record, Coupling,
+    NarrowBand, SineFit, Spikes, SplitRecord, Step, StepMethod,
+};
+
+mod slow_candidates;
+mod stochastic;
+
+use slow_candidates::slow_candidates;
+use stochastic::{gauss_markov_candidate, resonance_candidate};
+
+/// Most effects added to one channel.
+pub const MAX_STEPS: usize = 8;
+/// ΔBIC an effect must reach to be added: "strong" evidence on the Kass–Raftery scale (a
+/// Bayes factor of e³ ≈ 20). Between 0 and −6 the screen of pure IEEE noise (200 records × 4
+/// noise profiles) found only false additions — weak Gauss–Markov humps and a short noise
+/// excursion taken for a step, whose removal then planted a real one.
+pub const ADMIT_BIC: f64 = -6.0;
+/// Family-wise false-alarm probability of the raw-spectrum line search.
+const LINE_P: f64 = 1e-3;
+
+/// How the estimates are recomputed after a time-domain correction.
+#[derive(Debug, Clone)]
+pub struct LoopConfig {
+    pub welch: WelchConfig,
+    pub bins_per_decade: u32,
+    pub taus: TauGrid,
+    pub confidence: Confidence,
+    pub fit: FitOptions,
+}
+
+/// A channel that may explain part of the signal (temperature, any aux channel).
+#[derive(Debug, Clone, Copy)]
+pub struct AuxSeries<'a> {
+    pub name: &'a str,
+    pub samples: &'a [f64],
+}
+
+/// An effect the loop added, with its parameters and intervals (SI).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Effect {
+    /// A line: a sinusoid fitted in the time domain and removed.
+    Sinusoid(SineFit),
+    /// A narrowband resonance (second-order Gauss–Markov) of centre `f0_hz`, quality factor `q`
+    /// and standard deviation `sigma` (interval from the spectrum fit).
+    Resonance {
+        f0_hz: f64,
+        /// Profile-likelihood interval of f₀.
+        f0_lo: f64,
+        f0_hi: f64,
+        q: f64,
+        /// Profile-likelihood interval of Q.
+        q_lo: f64,
+        q_hi: f64,
+        sigma: EffectEstimate,
+    },
+    /// A first-order Gauss–Markov process: correlation time and standard deviation (interval
+    /// from the spectrum fit).
+    GaussMarkov { tc_s: f64, sigma: EffectEstimate },
+    /// Linear coupling to an aux channel, regressed out.
+    Coupling { aux: String, fit: Coupling },
+    /// A bias drift the IEEE terms lack (a settling, a curvature), removed.
+    Drift(Drift),
+    /// Spikes, replaced by the local level.
+    Spikes(Spikes),
+    /// A bias step, removed.
+    Step(Step),
+    /// The mean leaving and coming back (a step and its return), removed.
+    Excursion(Excursion),
+    /// A line with a width (a wandering line), measured and removed.
+    Narrowband(NarrowBand),
+}
+
+impl Effect {
+    /// A short name: `sinusoid`, `resonance`, …
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Effect::Sinusoid(_) => "sinusoid",
+            Effect::Resonance { .. } => "resonance",
+            Effect::GaussMarkov { .. } => "gauss_markov",
+            Effect::Coupling { .. } => "coupling",
+            Effect::Drift(_) => "drift",
+            Effect::Spikes(_) => "spikes",
+            Effect::Step(_) => "step",
+            Effect::Excursion(_) => "excursion",
+            Effect::Narrowband(_) => "narrowband",
+        }
+    }
+}
+
+/// The error of the model in both domains.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ErrorFigures {
+    pub allan: Option<Diagnostics>,
+    pub spectrum: Option<Diagnostics>,
+}
+
+/// One addition.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LoopStep {
+    pub effect: Effect,
+    /// Which residual pointed at it, and where.
+    pub evidence: String,
+    pub delta_bic: f64,
+    pub before: ErrorFigures,
+    pub after: ErrorFigures,
+}
+
+/// A candidate weighed in the last round and not kept.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Rejected {
+    pub kind: &'static str,
+    /// `None` for an excess no candidate could be formed for (kind `excess`; the note says why).
+    pub delta_bic: Option<f64>,
+    pub note: String,
+}
+
+/// The loop's account of one channel.
+#[derive(Debug, Clone, Serialize)]
+pub struct LoopReport {
+    /// The sensor low-pass the loop found and stayed inside of (only when its configuration asked
+    /// it to look: `analyze` detects it before the loop and hands the restricted band in).
+    pub bandwidth: Option<Bandwidth>,
+    pub initial: ErrorFigures,
+    pub steps: Vec<LoopStep>,
+    #[serde(rename = "final")]
+    pub final_figures: ErrorFigures,
+    /// Candidates of the last round (none of which improved the criterion).
+    pub rejected: Vec<Rejected>,
+    /// Split-record (four quarters) comparison of the Allan deviations of the final series.
+    pub stationarity: Option<SplitRecord>,
+    /// The fits of the base model before any effect (those after are the channel's fits).
+    #[serde(skip)]
+    pub base_allan: Option<NoiseFit>,
+    #[serde(skip)]
+    pub base_spectrum: Option<NoiseFit>,
+    /// Estimates of the corrected series, when a time-domain effect changed it.
+    #[serde(skip)]
+    pub corrected: Option<(Deviations, Psd)>,
+}
+
+/// The stochastic effect in the model.
+#[derive(Debug, Clone)]
+enum Stochastic {
+    GaussMarkov(GaussMarkov1),
+    Resonance(Resonance),
+}
+
+impl Stochastic {
+    fn shape(&self) -> &dyn EffectShape {
+        match self {
+            Stochastic::GaussMarkov(g) => g,
+            Stochastic::Resonance(r) => r,
+        }
+    }
+}
+
+/// Estimates and fits of the current state.
+/// The loop's state. The series is borrowed from the caller until a correction changes it (most
+/// records need none, and a copy of a 10⁷-sample channel cost its time and its memory).
+struct State<'a> {
+    y: Cow<'a, [f64]>,
+    dev: Deviations,
+    psd: Psd,
+    binned: BinnedPsd,
+    allan: Option<NoiseFit>,
+    spectrum: Option<NoiseFit>,
+    stochastic: Option<Stochastic>,
+    changed: bool,
+}
+
+fn estimates(y: &[f64], fs: f64, cfg: &LoopConfig) -> Option<(Deviations, Psd, BinnedPsd)> {
+    let dev = compute(y, fs, &cfg.taus, Statistic::Oadev, cfg.confidence).ok()?;
+    let psd = welch(y, fs, &cfg.welch).ok()?;
+    let binned = log_bin(&psd, cfg.bins_per_decade.max(1));
+    Some((dev, psd, binned))
+}
+
+fn fits(
+    dev: &Deviations,
+    psd: &Psd,
+    binned: &BinnedPsd,
+    cfg: &LoopConfig,
+    effect: Option<&dyn EffectShape>,
+) -> (Option<NoiseFit>, Option<NoiseFit>) {
+    (
+        fit_avar_with(dev, &cfg.fit, effect).ok(),
+        fit_psd_with(psd, binned, &cfg.fit, effect).ok(),
+    )
+}
+
+fn figures(allan: Option<&NoiseFit>, spectrum: Option<&NoiseFit>) -> ErrorFigures {
+    ErrorFigures {
+        allan: allan.map(diagnose),
+        spectrum: spectrum.map(diagnose),
+    }
+}
+
+/// The best eligible score of a fit's candidates.
+fn score(fit: &NoiseFit) -> f64 {
+    fit.candidates
+        .iter()
+        .filter(|c| c.proper)
+        .map(|c| c.score)
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// One-sided density at f of the coefficients `terms` plus the fit's stochastic effect.
+fn density_of(
+    terms: impl Iterator<Item = (Term, f64)>,
+    fit: &NoiseFit,
+    stochastic: Option<&Stochastic>,
+    f: f64,
+    fs: f64,
+) -> f64 {
+    let base: f64 = terms
+        .map(|(term, v)| v * v * term.psd_sampled_unit(f, fs))
+        .sum();
+    let effect = match (stochastic, fit.effect) {
+        (Some(s), Some(e)) => e.value * e.value * s.shape().psd_unit(f, fs),
+        _ => 0.0,
+    };
+    2.0 * (base + effect)
+}
+
+/// The spectrum fit's model as a one-sided density at f.
+fn model_one_sided(fit: &NoiseFit, stochastic: Option<&Stochastic>, f: f64, fs: f64) -> f64 {
+    let kept = fit.estimates.iter().map(|e| (e.term, e.value));
+    density_of(kept, fit, stochastic, f, fs)
+}
+
+/// The noise density (one-sided) of a fit's model for the regressions of slow effects: without
+/// the rate ramp (a ramp's increments are a constant, which their intercept absorbs), and with
+/// the terms the criterion left out at their upper limits. A term too weak to be admitted is not
+/// absent, and slow noise missing from the covariance would make a slow regressor look
+/// significant: the regressions err on the side of too much noise.
+fn noise_density<'a>(
+    fit: &'a NoiseFit,
+    stochastic: Option<&'a Stochastic>,
+    fs: f64,
+) -> impl Fn(f64) -> f64 + 'a {
+    move |f| {
+        let kept = fit.estimates.iter().map(|e| (e.term, e.value));
+        let left_out = fit.upper_limits.iter().map(|u| (u.term, u.upper));
+        let terms = kept
+            .chain(left_out)
+            .filter(|(term, v)| *term != Term::RateRamp && v.is_finite());
+        density_of(terms, fit, stochastic, f, fs)
+    }
+}
+
+/// A candidate for this round: its ΔBIC, what it would add, and the evidence.
+struct Candidate {
+    delta_bic: f64,
+    effect: Effect,
+    evidence: String,
+    apply: Apply,
+}
+
+impl Candidate {
+    /// Why the candidate may not be added whatever its ΔBIC: a slow effect whose family-wise
+    /// p-value is not below [`DETECTION_P`], or an excursion that a single step explains nearly
+    /// as well.
+    fn barred(&self) -> Option<String> {
+        let p = match &self.effect {
+            Effect::Coupling { fit, .. } => fit.p_value,
+            Effect::Drift(d) => d.p_value,
+            Effect::Excursion(e) if !e.beats_step() => {
+                return Some(format!(
+                    "not proposed: a single step explains it nearly as well (t² {:.1} over the best step's, below the {:.1} a second position costs)",
+                    e.over_step_t2, e.step_price_t2
+                ))
+            }
+            Effect::Excursion(e) => e.p_value,
+            Effect::Step(s) if s.method == StepMethod::Gls => s.p_value,
+            _ => return None,
+        };
+        (p.is_nan() || p >= DETECTION_P)
+            .then(|| format!("not proposed: family-wise p = {p:.1e}, not below {DETECTION_P:.0e}"))
+    }
+
+    fn admissible(&self) -> bool {
+        self.delta_bic < ADMIT_BIC && self.barred().is_none()
+    }
+}
+
+/// A correction of the series.
+type Correction = Box<dyn Fn(&mut Vec<f64>) + Send>;
+
+enum Apply {
+    /// Correct the series with this closure.
+    Series(Correction),
+    /// Put this stochastic effect in the model (with its already computed fits).
+    Model(Box<(Stochastic, Option<NoiseFit>, Option<NoiseFit>)>),
+}
+
+/// Runs the loop on one channel's samples `y` at `fs`. `initial`: the estimates of `y` already
+/// made with `cfg` (the OADEV and the spectrum, e.g. by a GPU backend); `None` computes them.
+pub fn close_loop(
+    y: &[f64],
+    fs: f64,
+    aux: &[AuxSeries<'_>],
+    cfg: &LoopConfig,
+    initial: Option<(Deviations, Psd, BinnedPsd)>,
+) -> Option<LoopOutcome> {
+    let (dev, psd, binned) = match initial {
+        Some(e) => e,
+        None => estimates(y, fs, cfg)?,
+    };
+    // Fit and search only inside the sensor's bandwidth (see `model::bandwidth`).
+    let mut cfg = cfg.clone();
+    let bandwidth = if cfg.fit.detect_bandwidth {
+        cfg.fit.detect_bandwidth = false;
+        detect_bandwidth(&psd, &binned, &dev.tau_s, &cfg.fit)
+    } else {
+        None
+    };
+    if let Some(b) = &bandwidth {
+        cfg.fit = b.restrict(&cfg.fit);
+    }
+    let cfg = &cfg;
+    let (allan, spectrum) = fits(&dev, &psd, &binned, cfg, None);
+    let mut state = State {
+        y: Cow::Borrowed(y),
+        dev,
+        psd,
+        binned,
+        allan,
+        spectrum,
+        stochastic: None,
+        changed: false,
+    };
+    let initial = figures(state.allan.as_ref(), state.spectrum.as_ref());
+    let (base_allan, base_spectrum) = (state.allan.clone(), state.spectrum.clone());
+    let p = cfg.confidence.probability().unwrap_or(0.682_689_492);
+    let mut steps: Vec<LoopStep> = Vec::new();
+    let mut rejected = Vec::new();
+    while steps.len() < MAX_STEPS {
+        let mut unexplained = Vec::new();
+        let candidates = propose(&state, fs, aux, cfg, p, &mut unexplained);
+        rejected = unexplained;
+        rejected.extend(candidates.iter().filter(|c| !c.admissible()).map(|c| {
+            Rejected {
+                kind: c.effect.kind(),
+                delta_bic: c.delta_bic.is_finite().then_some(c.delta_bic),
+                note: c
+                    .barred()
+                    .map_or(c.evidence.clone(), |b| format!("{}; {b}", c.evidence)),
+            }
+        }));
+        let Some(best) = candidates
+            .into_iter()
+            .filter(Candidate::admissible)
+            .min_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic))
+        else {
+            break;
+        };
+        let before = figures(state.allan.as_ref(), state.spectrum.as_ref());
+        match best.apply {
+            Apply::Series(correct) => {
+                correct(state.y.to_mut());
+                let Some((dev, psd, binned)) = estimates(&state.y, fs, cfg) else {
+                    break;
+                };
+                let shape = state.stochastic.as_ref().map(Stochastic::shape);
+                let (allan, spectrum) = fits(&dev, &psd, &binned, cfg, shape);
+                (state.dev, state.psd, state.binned) = (dev, psd, binned);
+                (state.allan, state.spectrum) = (allan, spectrum);
+                state.changed = true;
+            }
+            Apply::Model(model) => {
+                let (stochastic, allan, spectrum) = *model;
+                state.stochastic = Some(stochastic);
+                (state.allan, state.spectrum) = (allan, spectrum);
+            }
+        }
+        let after = figures(state.allan.as_ref(), state.spectrum.as_ref());
+        // A wandering line's tails, found once its core is gone, are the same line.
+        if let Effect::Narrowband(nb) = &best.effect {
+            if let Some(step) = steps.iter_mut().find(|s| {
+                matches!(&s.effect, Effect::Narrowband(p) if p.f_lo_hz <= nb.f_hi_hz && nb.f_lo_hz <= p.f_hi_hz)
+            }) {
+                if let Effect::Narrowband(prev) = &mut step.effect {
+                    merge_narrowband(prev, nb);
+                }
+                step.delta_bic += best.delta_bic;
+                step.after = after;
+                continue;
+            }
+        }
+        steps.push(LoopStep {
+            effect: best.effect,
+            evidence: best.evidence,
+            delta_bic: best.delta_bic,
+            before,
+            after,
+        });
+    }
+    let final_figures = figures(state.allan.as_ref(), state.spectrum.as_ref());
+    let report = LoopReport {
+        bandwidth,
+        initial,
+        steps,
+        final_figures,
+        rejected,
+        stationarity: split_record(&state.y, fs, 4, 0.99),
+        base_allan,
+        base_spectrum,
+        corrected: state
+            .changed
+            .then(|| (state.dev.clone(), state.psd.clone())),
+    };
+    Some(LoopOutcome {
+        report,
+        allan: state.allan,
+        spectrum: state.spectrum,
+    })
+}
+
+/// The loop's report and the final fits (base terms and the stochastic effect, on the corrected
+/// series).
+#[derive(Debug, Clone)]
+pub struct LoopOutcome {
+    pub report: LoopReport,
+    pub allan: Option<NoiseFit>,
+    pub spectrum: Option<NoiseFit>,
+}
+
+fn describe_excess(e: &Excess) -> String {
+    format!(
+        "raw spectrum {:.4} Hz: {} bins over the model (peak {:.1}×, p = {:.1e})",
+        e.freq_hz, e.bins, e.peak_ratio, e.p_value
+    )
+}
+
+/// Every candidate of the catalogue on the current state; spectral excesses no candidate could be
+/// formed for go to `unexplained` with the reason.
+fn propose(
+    state: &State,
+    fs: f64,
+    aux: &[AuxSeries<'_>],
+    cfg: &LoopConfig,
+    p: f64,
+    unexplained: &mut Vec<Rejected>,
+) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    let y = &state.y;
+
+    // The time-domain detectors are independent: run side by side, so that a channel that is
+    // analysed alone (the last of three on two cores) still uses every core.
+    let ((spikes, step), slow) = rayon::join(
+        || rayon::join(|| find_spikes(y, fs), || find_step(y, fs, p)),
+        || slow_candidates(state, fs, aux, cfg, p),
+    );
+    if !spikes.indices.is_empty() {
+        let s = spikes.clone();
+        out.push(Candidate {
+            delta_bic: spikes.delta_bic,
+            evidence: format!(
+                "time series: {} samples beyond {:.1}σ of the running median, {:.1} % of the variance",
+                spikes.indices.len(),
+                spikes.threshold_sigma,
+                100.0 * spikes.variance_share
+            ),
+            effect: Effect::Spikes(spikes),
+            apply: Apply::Series(Box::new(move |y| remove_spikes(y, &s))),
+        });
+    }
+    if let Some(mut step) = step {
+        // Its time's interval under the fitted noise, for a step that may be kept, searched over
+        // four of its scan windows either side.
+        if step.delta_bic < 0.0 {
+            if let Some(model) = state.allan.as_ref().or(state.spectrum.as_ref()) {
+                let density = noise_density(model, state.stochastic.as_ref(), fs);
+                let search = (4.0 * step.window_s * fs) as usize;
+                let change = LevelChange {
+                    y,
+                    fs,
+                    density: &density,
+                    sign: step.size.signum(),
+                    level: p,
+                };
+                if let Some(i) = change.interval(step.index, search) {
+                    step.time_interval_s = Some(i.seconds(fs));
+                    step.time_interval_cut = i.cut;
+                }
+            }
+        }
+        let s = step.clone();
+        out.push(Candidate {
+            delta_bic: step.delta_bic,
+            evidence: format!(
+                "time series: mean jumps at {:.1} s (dynamic Allan z = {:.1} over {:.1} s windows)",
+                step.time_s, step.z, step.window_s
+            ),
+            effect: Effect::Step(step),
+            apply: Apply::Series(Box::new(move |y| remove_step(y, &s))),
+        });
+    }
+    out.extend(slow);
+
+    let Some(spectrum) = &state.spectrum else {
+        return out;
+    };
+    let stochastic = state.stochastic.as_ref();
+    let min_f = 4.0 * fs / state.psd.nperseg.max(1) as f64;
+    // Inside the fit band the model is the fit's; beyond it, up to the sensor filter's corner, the
+    // model times the filter's response, where only narrow lines are looked for. Nothing beyond
+    // the corner is searched: that is the filter's edge, which no effect may be claimed from.
+    let fit_edge = cfg.fit.max_freq_hz.unwrap_or(f64::INFINITY);
+    let lowpass = cfg.fit.lowpass;
+    let max_f = lowpass.map_or(fit_edge, |lp| lp.corner_hz.max(fit_edge));
+    let model = |f: f64| {
+        model_one_sided(spectrum, stochastic, f, fs) * lowpass.map_or(1.0, |lp| lp.power_gain(f))
+    };
+    let excess = find_excess(&state.psd, model, min_f, max_f, LINE_P);
+    let searched = state
+        .psd
+        .freq_hz
+        .iter()
+        .filter(|&&f| f >= min_f && f <= max_f)
+        .count();
+    let z = norm_isf((1.0 - p) / 2.0);
+    for e in excess.iter().take(4) {
+        let narrow = (e.f_hi_hz - e.f_lo_hz) <= NARROW_FRACTION * e.freq_hz;
+        let in_band = e.f_hi_hz <= fit_edge;
+        if !in_band && !narrow {
+            unexplained.push(excess_note(
+                e,
+                "broad excess beyond the fit band (the sensor filter's transition): not an effect",
+            ));
+            continue;
+        }
+        let noise = model(e.freq_hz);
+        let sine = fit_sinusoid(y, fs, e.freq_hz, noise, p);
+        // A line puts its power A²/2 in the group; a resonance or a wandering line spreads power
+        // the sinusoid explains only a part of.
+        let line_share = sine.as_ref().map_or(0.0, |s| {
+            s.amplitude * s.amplitude / 2.0 / e.excess_power.max(f64::MIN_POSITIVE)
+        });
+        if let Some(sine) = sine.filter(|_| line_share >= 0.5) {
+            let s = sine.clone();
+            out.push(Candidate {
+                delta_bic: sine.delta_bic,
+                evidence: describe_excess(e),
+                effect: Effect::Sinusoid(sine),
+                apply: Apply::Series(Box::new(move |y| remove_sinusoid(y, fs, &s))),
+            });
+            continue;
+        }
+        if narrow {
+            if let Some(mut nb) =
+                measure_narrowband(&state.psd, &model, e.f_lo_hz, e.f_hi_hz, searched, z)
+            {
+                nb.coherent_share = line_share.min(1.0);
+                let clean = remove_narrowband(y, fs, &nb, &model, state.psd.nperseg);
+                out.push(Candidate {
+                    delta_bic: nb.delta_bic,
+                    evidence: format!(
+                        "{}; one coherent sinusoid explains {:.0} % of it",
+                        describe_excess(e),
+                        100.0 * line_share.min(1.0)
+                    ),
+                    effect: Effect::Narrowband(nb),
+                    apply: Apply::Series(Box::new(move |y| *y = clean.clone())),
+                });
+            }
+        }
+        if in_band && stochastic.is_none() {
+            if let Some(c) = resonance_candidate(state, e, fs, cfg, p) {
+                out.push(c);
+            }
+        } else if in_band && !narrow {
+            unexplained.push(excess_note(
+                e,
+                "resonance not tried: the model already holds a stochastic effect",
+            ));
+        }
+    }
+    if stochastic.is_none() {
+        if let Some(c) = gauss_markov_candidate(state, fs, cfg, p) {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// An excess group no wider than this fraction of its frequency is narrow (a line, possibly
+/// wandering: Q ≳ 20); wider ones are resonances.
+const NARROW_FRACTION: f64 = 0.05;
+
+/// `into` extended by `more`, a later pass over the same line (its tails): powers and their
+/// interval ends add, the band is the union, the centre the power-weighted mean.
+fn merge_narrowband(into: &mut NarrowBand, more: &NarrowBand) {
+    let total = into.power + more.power;
+    if total > 0.0 {
+        into.freq_hz = (into.freq_hz * into.power + more.freq_hz * more.power) / total;
+    }
+    into.width_hz = into.width_hz.max(more.width_hz);
+    into.f_lo_hz = into.f_lo_hz.min(more.f_lo_hz);
+    into.f_hi_hz = into.f_hi_hz.max(more.f_hi_hz);
+    into.power = total;
+    into.power_lo += more.power_lo;
+    into.power_hi += more.power_hi;
+    into.equivalent_amplitude = (2.0 * total).sqrt();
+    into.delta_bic += more.delta_bic;
+}
+
+/// An excess that no candidate could be formed for, as the report lists it (kind `excess`, no
+/// ΔBIC).
+fn excess_note(e: &Excess, why: &str) -> Rejected {
+    Rejected {
+        kind: "excess",
+        delta_bic: None,
+        note: format!("{}; {why}", describe_excess(e)),
+    }
+}

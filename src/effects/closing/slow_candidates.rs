@@ -1,0 +1,218 @@
+//! Slow effects as loop candidates: a drift shape, a bias step and an excursion estimated under
+//! the fitted noise model (their estimators live in [`crate::effects::slow`],
+//! [`crate::effects::shift`] and [`crate::effects::excursion`]), each refined once by feasible GLS,
+//! and the coupling to each aux channel.
+
+use super::*;
+/// Raw p-value below which a slow effect's regression is repeated under the noise model refitted
+/// without it.
+pub(super) const REFINE_P: f64 = 0.05;
+
+/// The Allan fit of the current series after `correct`: the noise model with a slow effect taken
+/// out.
+pub(super) fn allan_without(
+    state: &State,
+    fs: f64,
+    cfg: &LoopConfig,
+    correct: &dyn Fn(&mut Vec<f64>),
+) -> Option<NoiseFit> {
+    let mut y = state.y.to_vec();
+    correct(&mut y);
+    let dev = compute(&y, fs, &cfg.taus, Statistic::Oadev, cfg.confidence).ok()?;
+    let shape = state.stochastic.as_ref().map(Stochastic::shape);
+    fit_avar_with(&dev, &cfg.fit, shape).ok()
+}
+
+/// A noise density, one-sided, units²/Hz.
+pub(super) type Density<'a> = &'a dyn Fn(f64) -> f64;
+
+/// Feasible GLS, one pass: when the first estimate is `promising` (its p-value below
+/// [`REFINE_P`], or that times its family), `estimate` (a slow effect under a noise density) again
+/// under the Allan fit of the series with `first` removed by `remove`; `first` otherwise or where
+/// that fails.
+pub(super) fn refined<T>(
+    state: &State,
+    fs: f64,
+    cfg: &LoopConfig,
+    first: T,
+    promising: bool,
+    estimate: &dyn Fn(Density<'_>) -> Option<T>,
+    remove: &dyn Fn(&mut Vec<f64>, &T),
+) -> T {
+    if !promising {
+        return first;
+    }
+    allan_without(state, fs, cfg, &|v: &mut Vec<f64>| remove(v, &first))
+        .and_then(|fit| estimate(&noise_density(&fit, state.stochastic.as_ref(), fs)))
+        .unwrap_or(first)
+}
+
+/// Coupling to each aux channel and a drift, regressed under the noise the Allan fit describes
+/// (it sees the long τ where slow effects live; the spectrum fit's band starts at
+/// 4·fs/nperseg). The base fit has absorbed part of a slow effect into its random walk and ramp,
+/// which inflates the covariance and hides the effect; so a regression with some evidence
+/// (p < [`REFINE_P`]) is repeated once under the Allan fit of the series with the first estimate
+/// removed (feasible GLS). Added only below the family-wise [`DETECTION_P`]
+/// ([`Candidate::barred`]); above it they are listed as considered.
+pub(super) fn slow_candidates(
+    state: &State,
+    fs: f64,
+    aux: &[AuxSeries<'_>],
+    cfg: &LoopConfig,
+    p: f64,
+) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    let y = &state.y;
+    let Some(model) = state.allan.as_ref().or(state.spectrum.as_ref()) else {
+        return out;
+    };
+    let stochastic = state.stochastic.as_ref();
+    let density = noise_density(model, stochastic, fs);
+    let usable: Vec<&AuxSeries<'_>> = aux.iter().filter(|a| a.samples.len() == y.len()).collect();
+    for a in &usable {
+        let family = usable.len();
+        let estimate = |density: &dyn Fn(f64) -> f64| {
+            coupling_under_model(y, a.samples, fs, density, family, p)
+        };
+        let Some(first) = estimate(&density) else {
+            continue;
+        };
+        let promising = first.p_value < REFINE_P * family as f64;
+        let c = refined(state, fs, cfg, first, promising, &estimate, &|v, c| {
+            remove_coupling(v, a.samples, c)
+        });
+        // The model-free test on the same data, for the reader: it needs no noise model but
+        // weighs the increments equally, so it is weaker on a smooth aux.
+        let free = fit_coupling(y, a.samples, fs, p).map_or(String::new(), |f| {
+            format!("; model-free increments test p = {:.1e}", f.p_value)
+        });
+        let (fit, samples) = (c.clone(), a.samples.to_vec());
+        out.push(Candidate {
+            delta_bic: c.delta_bic,
+            evidence: format!(
+                "time series: regression on {} under the fitted noise model (t = {:.1} on {} increments of {:.1} s, p = {:.1e}){free}",
+                a.name, c.z, c.n_eff, c.scale_s, c.p_value
+            ),
+            effect: Effect::Coupling {
+                aux: a.name.to_string(),
+                fit: c,
+            },
+            apply: Apply::Series(Box::new(move |y: &mut Vec<f64>| {
+                remove_coupling(y, &samples, &fit)
+            })),
+        });
+    }
+    // The drift and excursion searches regress on the same whitened increments: whitened once.
+    let increments = IncrementModel::for_series(&density, fs, y, MAX_INCREMENTS);
+    let first = increments
+        .as_ref()
+        .and_then(|(m, u)| drift_in(y, fs, m, u, p));
+    let estimate = |density: &dyn Fn(f64) -> f64| drift_under_model(y, fs, density, p);
+    out.extend(slow_candidate(state, fs, cfg, first, &estimate));
+    // One scan of every box gives the best excursion and the best single step.
+    let boxes = increments
+        .as_ref()
+        .and_then(|(m, u)| BoxSearch::new(y, fs, &density, m, u));
+    let first = boxes.as_ref().and_then(|b| step_from_search(b, p));
+    let estimate = |density: &dyn Fn(f64) -> f64| step_under_model(y, fs, density, p);
+    out.extend(slow_candidate(state, fs, cfg, first, &estimate));
+    let first = boxes.as_ref().and_then(|b| b.excursion(p));
+    let estimate = |density: &dyn Fn(f64) -> f64| excursion_under_model(y, fs, density, p);
+    out.extend(slow_candidate(state, fs, cfg, first, &estimate));
+    out
+}
+
+/// A slow effect the time domain finds under the fitted noise model (a drift, a GLS step, an
+/// excursion): what [`slow_candidate`] needs to refine it and offer it.
+pub(super) trait SlowEffect: Clone + Send + 'static {
+    fn p_value(&self) -> f64;
+    fn delta_bic(&self) -> f64;
+    fn evidence(&self) -> String;
+    fn effect(self) -> Effect;
+    fn remove(&self, y: &mut Vec<f64>, fs: f64);
+}
+
+impl SlowEffect for Drift {
+    fn p_value(&self) -> f64 {
+        self.p_value
+    }
+    fn delta_bic(&self) -> f64 {
+        self.delta_bic
+    }
+    fn evidence(&self) -> String {
+        format!(
+            "time series: drift shape under the fitted noise model (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over the shapes tried)",
+            self.z, self.increments, self.block_s, self.p_value
+        )
+    }
+    fn effect(self) -> Effect {
+        Effect::Drift(self)
+    }
+    fn remove(&self, y: &mut Vec<f64>, fs: f64) {
+        remove_drift(y, fs, self);
+    }
+}
+
+impl SlowEffect for Step {
+    fn p_value(&self) -> f64 {
+        self.p_value
+    }
+    fn delta_bic(&self) -> f64 {
+        self.delta_bic
+    }
+    fn evidence(&self) -> String {
+        format!(
+            "time series: the mean shifts at {:.1} s and stays, under the fitted noise model (t = {:.1} on increments of {:.1} s, p = {:.1e} over the positions)",
+            self.time_s, self.z, self.window_s, self.p_value
+        )
+    }
+    fn effect(self) -> Effect {
+        Effect::Step(self)
+    }
+    fn remove(&self, y: &mut Vec<f64>, _fs: f64) {
+        remove_step(y, self);
+    }
+}
+
+impl SlowEffect for Excursion {
+    fn p_value(&self) -> f64 {
+        self.p_value
+    }
+    fn delta_bic(&self) -> f64 {
+        self.delta_bic
+    }
+    fn evidence(&self) -> String {
+        format!(
+            "time series: the mean leaves and returns, {:.1}–{:.1} s (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over {} boxes)",
+            self.start_s, self.end_s, self.z, self.increments, self.block_s, self.p_value, self.boxes
+        )
+    }
+    fn effect(self) -> Effect {
+        Effect::Excursion(self)
+    }
+    fn remove(&self, y: &mut Vec<f64>, _fs: f64) {
+        remove_excursion(y, self);
+    }
+}
+
+/// `first`, refined once by feasible GLS when its p-value is below [`REFINE_P`], as a candidate.
+pub(super) fn slow_candidate<T: SlowEffect>(
+    state: &State,
+    fs: f64,
+    cfg: &LoopConfig,
+    first: Option<T>,
+    estimate: &dyn Fn(Density<'_>) -> Option<T>,
+) -> Option<Candidate> {
+    let first = first?;
+    let promising = first.p_value() < REFINE_P;
+    let e = refined(state, fs, cfg, first, promising, estimate, &|v, e: &T| {
+        e.remove(v, fs)
+    });
+    let applied = e.clone();
+    Some(Candidate {
+        delta_bic: e.delta_bic(),
+        evidence: e.evidence(),
+        effect: e.effect(),
+        apply: Apply::Series(Box::new(move |y| applied.remove(y, fs))),
+    })
+}
