@@ -22,8 +22,6 @@
 //! of S in O(1): the modified Allan variance at a few sampled start indices needs them (noise
 //! identification).
 
-use std::sync::Mutex;
-
 use rayon::prelude::*;
 
 use super::AvarError;
@@ -37,38 +35,10 @@ const LANES: usize = 4;
 const SUB: usize = 256;
 /// Sub-anchors per anchored block.
 const SUBS: usize = ANCHOR / SUB;
-/// Buffers of at least this many values are kept for reuse when dropped.
-const POOLED_MIN: usize = 1 << 20;
-
-/// One spare S buffer, kept between calls: a fresh 80 MB allocation costs about as much in page
-/// faults (~25 ms) as the whole OADEV sweep of ten million samples, and a batch run computes many
-/// channels of the same length one after another. At most one buffer (the largest recently
-/// dropped) is kept; [`release_cached_memory`] frees it.
-static SPARE: Mutex<Vec<f64>> = Mutex::new(Vec::new());
-
-/// Frees the S buffer kept for reuse between calls (see [`PrefixSums`]); the next call
-/// allocates afresh.
+/// Frees the record-length buffers kept for reuse between calls (see [`PrefixSums`] and
+/// [`crate::memory::scratch`]); the next call allocates afresh.
 pub fn release_cached_memory() {
-    let spare = std::mem::take(&mut *SPARE.lock().unwrap_or_else(|e| e.into_inner()));
-    drop(spare);
-}
-
-/// A buffer of `len` values with unspecified contents: the spare if it is large enough, else a
-/// fresh zeroed one (`vec!` of zeros maps fresh pages, so their first touch, and its page faults,
-/// happens in the parallel fill).
-fn take_buffer(len: usize) -> Vec<f64> {
-    let mut spare = std::mem::take(&mut *SPARE.lock().unwrap_or_else(|e| e.into_inner()));
-    if spare.capacity() >= len {
-        if spare.len() >= len {
-            spare.truncate(len);
-        } else {
-            spare.resize(len, 0.0);
-        }
-        spare
-    } else {
-        drop(spare);
-        vec![0.0f64; len]
-    }
+    crate::memory::release_cached_memory();
 }
 
 /// S_j = Σ_{k<j} (y_k − ȳ) for j = 0..=N, with the mean ȳ that was removed, and coarse cumulative
@@ -130,7 +100,7 @@ impl PrefixSums {
             })
             .collect();
         // Pass 2: fill S between anchors, and the sums of S towards each sub-anchor.
-        let mut s = take_buffer(n + 1);
+        let mut s = crate::memory::scratch(n + 1);
         s[0] = 0.0;
         let mut sub_t = vec![0.0f64; bases.len() * SUBS];
         let mut totals = vec![0.0f64; bases.len()];
@@ -201,14 +171,7 @@ impl PrefixSums {
 
 impl Drop for PrefixSums {
     fn drop(&mut self) {
-        let buf = std::mem::take(&mut self.s);
-        if buf.capacity() < POOLED_MIN {
-            return;
-        }
-        let mut spare = SPARE.lock().unwrap_or_else(|e| e.into_inner());
-        if buf.capacity() > spare.capacity() {
-            *spare = buf;
-        }
+        crate::memory::recycle(std::mem::take(&mut self.s));
     }
 }
 
