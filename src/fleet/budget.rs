@@ -8,11 +8,12 @@
 //! **The estimate** ([`footprint_bytes`]) is a model of `analyze`'s measured peak resident memory:
 //! a base of [`BASE_BYTES`], every channel's samples as f64 (8 bytes each: the Allan statistics
 //! hold whole channels), and [`LOOP_BYTES_PER_SAMPLE`] per sample for each channel the model
-//! stage works on at once (one per core: the residual loop's copy of the channel and its
-//! corrections). Measured on this project's 2-core machine (`/usr/bin/time`, peak RSS) against
-//! the model: 1 h × 200 Hz × 6 channels 118 MB (model 131 MB), 2 h × 200 Hz × 3 channels 153 MB
-//! (177 MB), 13.5 h × 207 Hz × 3 channels (f32) 689 MB (937 MB), 24 h × 400 Hz × 7 channels
-//! 3.33 GB (4.20 GB): 9–36 % above, never below. Rows come from the Parquet footer, from the
+//! stage works on at once (one per core: the residual loop's detectors and their buffers, a
+//! corrected copy of the channel). Measured on this project's 2-core machine (`/usr/bin/time`,
+//! peak RSS, f32 Arrow files) against the model: 1 h × 200 Hz × 6 channels 151–155 MB (model
+//! 164 MB), 2 h × 200 Hz × 3 channels 162–171 MB (210 MB), 13.5 h × 207 Hz × 3 channels
+//! 510–534 MB (970 MB), 24 h × 400 Hz × 7 channels 3.0–3.1 GB (4.23 GB): 6–90 % above, never
+//! below. Rows come from the Parquet footer, from the
 //! sampled length of a CSV line, or from the file size over the stored width of a row (Arrow IPC,
 //! MCAP: an over-estimate where messages carry overhead).
 
@@ -21,8 +22,10 @@ use std::sync::{Condvar, Mutex};
 
 use crate::io::{self, OpenOptions};
 
-/// Resident memory of an analysis before any sample (binary, allocator, thread stacks).
-pub const BASE_BYTES: u64 = 48 << 20;
+/// Resident memory of an analysis before any sample (binary, allocator, thread stacks), and the
+/// small buffers that do not grow with the record (was 48 MiB until the time-domain detectors of a
+/// channel ran side by side: a 1-h × 6-channel file then peaked 20 MB above that model).
+pub const BASE_BYTES: u64 = 80 << 20;
 /// Per sample of each channel the model stage holds at once.
 pub const LOOP_BYTES_PER_SAMPLE: u64 = 32;
 
