@@ -33,6 +33,7 @@
 //! integral of 1 gives fs/(4m). White noise is the worst case: B and K live at low frequencies
 //! the filter passes. Nothing above the band's edge is searched for effects either.
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::psd::{BinnedPsd, Psd};
@@ -254,15 +255,18 @@ pub fn detect_bandwidth(
             .map(|k| lo * 10f64.powf(k as f64 / per_decade))
             .collect()
     };
-    let mut best = (
-        f64::INFINITY,
-        LowPass {
-            corner_hz: f_hi,
-            order: 1,
-            form: FilterForm::Analog,
-        },
-    );
+    // Every trial is independent: they are scored in parallel (the channel's other cores are idle
+    // when a file has fewer channels than cores, or at the end of a file) and the first best in
+    // the sequential order is taken, as a sequential scan would.
+    let first_best = |trials: Vec<LowPass>, start: (f64, LowPass)| -> (f64, LowPass) {
+        let scores: Vec<f64> = trials.par_iter().map(|&lp| try_filter(lp)).collect();
+        trials.into_iter().zip(scores).fold(
+            start,
+            |best, (lp, ll)| if ll < best.0 { (ll, lp) } else { best },
+        )
+    };
     let forms = [FilterForm::Analog, FilterForm::Digital { rate_hz: fs }];
+    let mut trials = Vec::new();
     for form in forms {
         // A digital corner lies below Nyquist.
         let hi = match form {
@@ -271,34 +275,32 @@ pub fn detect_bandwidth(
         };
         for &order in &ORDERS {
             for &corner_hz in &grid(24.0, f_lo, hi) {
-                let lp = LowPass {
+                trials.push(LowPass {
                     corner_hz,
                     order,
                     form,
-                };
-                let ll = try_filter(lp);
-                if ll < best.0 {
-                    best = (ll, lp);
-                }
+                });
             }
         }
     }
+    let unfiltered = LowPass {
+        corner_hz: f_hi,
+        order: 1,
+        form: FilterForm::Analog,
+    };
+    let best = first_best(trials, (f64::INFINITY, unfiltered));
     // Refine the corner at the best order.
     let coarse = best.1;
     let step = 10f64.powf(1.0 / 24.0);
-    for &corner_hz in &grid(96.0, coarse.corner_hz / step, coarse.corner_hz * step) {
-        let lp = LowPass {
+    let refine: Vec<LowPass> = grid(96.0, coarse.corner_hz / step, coarse.corner_hz * step)
+        .into_iter()
+        .map(|corner_hz| LowPass {
             corner_hz,
             ..coarse
-        };
-        if matches!(lp.form, FilterForm::Digital { .. }) && corner_hz >= 0.5 * fs {
-            continue;
-        }
-        let ll = try_filter(lp);
-        if ll < best.0 {
-            best = (ll, lp);
-        }
-    }
+        })
+        .filter(|lp| !(matches!(lp.form, FilterForm::Digital { .. }) && lp.corner_hz >= 0.5 * fs))
+        .collect();
+    let best = first_best(refine, best);
     let (ll, lowpass) = best;
     let delta_bic = ll - base + 2.0 * (n as f64).ln();
     let top = x[n - 1];

@@ -13,6 +13,8 @@
 //! conservative) and the record is declared non-stationary when the result is below
 //! [`FAMILY_FALSE_ALARM`].
 
+use rayon::prelude::*;
+
 use crate::avar::{compute, Confidence, Statistic, TauGrid};
 
 use super::stats::{chi2_sf, norm_isf};
@@ -55,7 +57,10 @@ pub fn split_record(y: &[f64], rate_hz: f64, parts: usize, p: f64) -> Option<Spl
         .map(|k| 1u64 << k)
         .take_while(|&m| m as usize * MIN_TERMS <= len)
         .collect();
+    // The parts are independent: computed in parallel (this runs once the loop has ended, when
+    // the channel's other core may be idle).
     let devs = (0..parts)
+        .into_par_iter()
         .map(|j| {
             compute(
                 &y[j * len..(j + 1) * len],
