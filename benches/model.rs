@@ -1,7 +1,9 @@
 //! Noise-model fits and the simulator: `fit_avar` on an octave OADEV curve (31 subsets, each
 //! iterated to convergence with the working correlation), `fit_psd` on a log-binned Welch
-//! spectrum, and `simulate` of one channel with every IEEE term (flicker dominates: one real FFT of
-//! ≥ 4n points).
+//! spectrum, `simulate` of one channel with every IEEE term (flicker dominates: one real FFT of
+//! ≥ 4n points), and the model stage against the estimation it follows (`loop_vs_estimation`: the
+//! OADEV, Welch spectrum and log bins of one channel, then the whole residual loop on them, as
+//! `analyze` runs it per channel).
 //!
 //! `cargo bench --bench model`.
 
@@ -9,6 +11,7 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use imunoise::avar::{compute, Confidence, Statistic, TauGrid};
+use imunoise::effects::{close_loop, LoopConfig};
 use imunoise::model::{fit_avar, fit_psd, Coefficients, FitOptions, Sensor};
 use imunoise::psd::{log_bin, welch, WelchConfig};
 use imunoise::sim::{simulate, ChannelSpec, SimSpec};
@@ -73,5 +76,35 @@ fn simulator(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, fits, simulator);
+fn loop_vs_estimation(c: &mut Criterion) {
+    let mut group = c.benchmark_group("loop_vs_estimation");
+    group.sample_size(10);
+    let cfg = LoopConfig {
+        welch: WelchConfig::new(4096),
+        bins_per_decade: 20,
+        taus: TauGrid::Octave,
+        confidence: Confidence::OneSigma,
+        fit: FitOptions::default(),
+    };
+    let estimate = |y: &[f64]| {
+        let d = compute(y, FS, &cfg.taus, Statistic::Oadev, cfg.confidence).unwrap();
+        let psd = welch(y, FS, &cfg.welch).unwrap();
+        let binned = log_bin(&psd, cfg.bins_per_decade);
+        (d, psd, binned)
+    };
+    for n in [1usize << 20, 1 << 22] {
+        let y = simulate(&spec(n)).unwrap().channels.remove(0).samples;
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_with_input(BenchmarkId::new("estimate", n), &y, |b, y| {
+            b.iter(|| estimate(black_box(y)))
+        });
+        let initial = estimate(&y);
+        group.bench_with_input(BenchmarkId::new("fit_and_loop", n), &y, |b, y| {
+            b.iter(|| close_loop(black_box(y), FS, &[], &cfg, Some(initial.clone())).unwrap())
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, fits, simulator, loop_vs_estimation);
 criterion_main!(benches);
