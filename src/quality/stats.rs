@@ -101,7 +101,7 @@ impl ChannelStats {
     }
 
     /// Adds a slice of finite samples at once: the block's moments about its first sample and its
-    /// extremes in one lane-parallel pass ([`BlockScan`]), merged with Chan et al.'s pairwise update.
+    /// extremes in one lane-parallel pass (`BlockScan`), merged with Chan et al.'s pairwise update.
     /// Same result as [`push`](Self::push) per sample up to rounding; this is the screen every sample
     /// of every file goes through, so it is written for the vector units (a fold with `f64::min` or a
     /// single running sum would keep them idle).
