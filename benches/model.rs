@@ -79,13 +79,7 @@ fn simulator(c: &mut Criterion) {
 fn loop_vs_estimation(c: &mut Criterion) {
     let mut group = c.benchmark_group("loop_vs_estimation");
     group.sample_size(10);
-    let cfg = LoopConfig {
-        welch: WelchConfig::new(4096),
-        bins_per_decade: 20,
-        taus: TauGrid::Octave,
-        confidence: Confidence::OneSigma,
-        fit: FitOptions::default(),
-    };
+    let cfg = LoopConfig::with_segment(4096);
     let estimate = |y: &[f64]| {
         let d = compute(y, FS, &cfg.taus, Statistic::Oadev, cfg.confidence).unwrap();
         let psd = welch(y, FS, &cfg.welch).unwrap();

@@ -16,11 +16,9 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use imunoise::avar::{Confidence, TauGrid};
 use imunoise::effects::slow::DriftShape;
 use imunoise::effects::{close_loop, AuxSeries, Effect, LoopConfig, LoopOutcome};
-use imunoise::model::{CoefUnit, Coefficients, FitOptions};
-use imunoise::psd::WelchConfig;
+use imunoise::model::{CoefUnit, Coefficients};
 use imunoise::sim::{simulate, ChannelTruth, SimSpec};
 use rayon::prelude::*;
 use serde_json::{json, Value};
@@ -39,13 +37,7 @@ const KINDS: [&str; 7] = [
 ];
 
 fn config() -> LoopConfig {
-    LoopConfig {
-        welch: WelchConfig::new(4096),
-        bins_per_decade: 20,
-        taus: TauGrid::Octave,
-        confidence: Confidence::OneSigma,
-        fit: FitOptions::default(),
-    }
+    LoopConfig::with_segment(4096)
 }
 
 struct Args {

@@ -9,10 +9,8 @@
 
 use std::path::Path;
 
-use imunoise::avar::{Confidence, TauGrid};
 use imunoise::effects::{close_loop, LoopConfig, LoopOutcome};
-use imunoise::model::{FitOptions, NoiseFit};
-use imunoise::psd::WelchConfig;
+use imunoise::model::NoiseFit;
 
 fn read_column(path: &Path) -> Vec<f64> {
     std::fs::read_to_string(path)
@@ -88,13 +86,7 @@ fn report(name: &str, o: &LoopOutcome) {
 }
 
 fn config(nperseg: usize) -> LoopConfig {
-    LoopConfig {
-        welch: WelchConfig::new(nperseg),
-        bins_per_decade: 20,
-        taus: TauGrid::Octave,
-        confidence: Confidence::OneSigma,
-        fit: FitOptions::default(),
-    }
+    LoopConfig::with_segment(nperseg)
 }
 
 fn main() {

@@ -9,8 +9,7 @@
 
 use imunoise::avar::{compute, Confidence, Statistic, TauGrid};
 use imunoise::effects::{close_loop, LoopConfig};
-use imunoise::model::{combine, CoefUnit, Coefficients, FitOptions, FitWarning, Term};
-use imunoise::psd::WelchConfig;
+use imunoise::model::{combine, CoefUnit, Coefficients, FitWarning, Term};
 use imunoise::sim::{simulate, SimSpec};
 use serde_json::json;
 
@@ -225,13 +224,7 @@ fn main() {
             rate: None,
         },
     ];
-    let cfg = LoopConfig {
-        welch: WelchConfig::new(4096),
-        bins_per_decade: 20,
-        taus: TauGrid::Octave,
-        confidence: Confidence::OneSigma,
-        fit: FitOptions::default(),
-    };
+    let cfg = LoopConfig::with_segment(4096);
     let t = truth();
     let truths = [
         (Term::RandomWalk, t.n),

@@ -54,11 +54,12 @@ mod sweep;
 mod tau;
 mod variances;
 
+pub use crate::memory::release_cached_memory;
 pub use compute::{checked_factors, compute, compute_statistics, deviations_from_variances};
 pub use confidence::{chi2_quantile, variance_bounds, Confidence, ONE_SIGMA};
 pub use deviations::Deviations;
 pub use error::AvarError;
 pub use noise_id::{identify_noise, NoiseEstimate, NoiseIdMethod};
-pub use prefix::{release_cached_memory, PrefixSums};
+pub use prefix::PrefixSums;
 pub use statistic::Statistic;
 pub use tau::TauGrid;

@@ -35,17 +35,11 @@ const LANES: usize = 4;
 const SUB: usize = 256;
 /// Sub-anchors per anchored block.
 const SUBS: usize = ANCHOR / SUB;
-/// Frees the record-length buffers kept for reuse between calls (see [`PrefixSums`] and
-/// [`crate::memory::scratch`]); the next call allocates afresh.
-pub fn release_cached_memory() {
-    crate::memory::release_cached_memory();
-}
-
 /// S_j = Σ_{k<j} (y_k − ȳ) for j = 0..=N, with the mean ȳ that was removed, and coarse cumulative
 /// sums of S itself (for window sums of S).
 ///
 /// The S buffer of a large recording is recycled when this is dropped (see
-/// [`release_cached_memory`]).
+/// [`crate::memory::release_cached_memory`]).
 #[derive(Debug, Clone)]
 pub struct PrefixSums {
     s: Vec<f64>,

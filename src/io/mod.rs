@@ -314,12 +314,13 @@ impl Recording {
             }
             Format::Csv => {
                 // The mean length of the lines in the first 64 KiB.
+                use std::io::Read;
                 let mut head = Vec::with_capacity(1 << 16);
-                std::io::Read::read_to_end(
-                    &mut std::io::Read::take(std::fs::File::open(path).ok()?, 1 << 16),
-                    &mut head,
-                )
-                .ok()?;
+                std::fs::File::open(path)
+                    .ok()?
+                    .take(1 << 16)
+                    .read_to_end(&mut head)
+                    .ok()?;
                 let lines = head.iter().filter(|b| **b == b'\n').count().max(1) as u64;
                 Some(size * lines / head.len().max(1) as u64)
             }

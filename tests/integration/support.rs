@@ -146,13 +146,7 @@ pub fn repo_root() -> PathBuf {
 /// The residual loop's settings in the loop tests: Welch segments of 4096, 20 bands per decade,
 /// octave τ, 1σ intervals, default fit options.
 pub fn loop_config() -> imunoise::effects::LoopConfig {
-    imunoise::effects::LoopConfig {
-        welch: imunoise::psd::WelchConfig::new(4096),
-        bins_per_decade: 20,
-        taus: imunoise::avar::TauGrid::Octave,
-        confidence: imunoise::avar::Confidence::OneSigma,
-        fit: imunoise::model::FitOptions::default(),
-    }
+    imunoise::effects::LoopConfig::with_segment(4096)
 }
 
 /// The loop tests' gyro: N = 0.15 °/√h, B = 3 °/h, K = 20 °/h/√h (SI).

@@ -79,6 +79,20 @@ pub struct LoopConfig {
     pub fit: FitOptions,
 }
 
+impl LoopConfig {
+    /// The settings `analyze` uses by default, with Welch segments of `nperseg` samples: 20 log
+    /// bins per decade, octave τ, 1σ intervals, the default fit options.
+    pub fn with_segment(nperseg: usize) -> Self {
+        LoopConfig {
+            welch: WelchConfig::new(nperseg),
+            bins_per_decade: 20,
+            taus: TauGrid::Octave,
+            confidence: Confidence::OneSigma,
+            fit: FitOptions::default(),
+        }
+    }
+}
+
 /// A channel that may explain part of the signal (temperature, any aux channel).
 #[derive(Debug, Clone, Copy)]
 pub struct AuxSeries<'a> {

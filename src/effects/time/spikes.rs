@@ -162,45 +162,31 @@ pub fn find_spikes(y: &[f64], rate_hz: f64) -> Spikes {
     }
     let limit = t * sigma;
     let ln_n = (n as f64).ln();
-    let mut evidence = Vec::new();
-    for &(i, r) in &excess_at {
-        let v = linear_residual_at(y, &candidates, i);
-        if v.abs() > limit {
-            out.indices.push(i);
-            out.excess.push(r);
-            evidence.push(2.0 * ln_n - (v / sigma).powi(2));
-        }
-    }
-    out.removal =
-        conditional_fill(y, &out.indices, &candidates).unwrap_or_else(|| out.excess.clone());
+    // (index, median residual, ΔBIC share) of each confirmed candidate.
+    let confirmed: Vec<(usize, f64, f64)> = excess_at
+        .iter()
+        .filter_map(|&(i, r)| {
+            let v = linear_residual_at(y, &candidates, i);
+            (v.abs() > limit).then(|| (i, r, 2.0 * ln_n - (v / sigma).powi(2)))
+        })
+        .collect();
+    let indices: Vec<usize> = confirmed.iter().map(|c| c.0).collect();
+    let removal = conditional_fill(y, &indices, &candidates)
+        .unwrap_or_else(|| confirmed.iter().map(|c| c.1).collect());
     // A sample its conditional draw hardly moves (by less than σ) is consistent with its clean
     // neighbours: on a low-pass-filtered channel a large excursion of the noise itself passes the
     // linear test together with its neighbours. It is no outlier, and removing it changes nothing,
     // so the loop found it again after every removal (one such sample was added 8 times, to the
     // loop's limit, on 10 of 1536 channels of a clean filtered fleet).
-    let keep: Vec<bool> = out
-        .removal
-        .iter()
-        .map(|e| e.abs() >= MIN_MOVE * sigma)
-        .collect();
-    let kept = |v: &[f64]| -> Vec<f64> {
-        v.iter()
-            .zip(&keep)
-            .filter(|(_, &k)| k)
-            .map(|(x, _)| *x)
-            .collect()
-    };
-    out.excess = kept(&out.excess);
-    out.removal = kept(&out.removal);
-    out.delta_bic = kept(&evidence).iter().sum();
-    out.indices = out
-        .indices
-        .iter()
-        .zip(&keep)
-        .filter(|(_, &k)| k)
-        .map(|(&i, _)| i)
-        .collect();
-    out.times_s = out.indices.iter().map(|&i| i as f64 / rate_hz).collect();
+    for ((i, r, evidence), e) in confirmed.into_iter().zip(removal) {
+        if e.abs() >= MIN_MOVE * sigma {
+            out.indices.push(i);
+            out.times_s.push(i as f64 / rate_hz);
+            out.excess.push(r);
+            out.removal.push(e);
+            out.delta_bic += evidence;
+        }
+    }
     let (_, var) = mean_var(y);
     if var > 0.0 {
         out.variance_share =
@@ -262,14 +248,21 @@ fn linear_residual_at(y: &[f64], exclude: &[bool], i: usize) -> f64 {
     }
 }
 
+/// Samples in the running median's window: y_i and its neighbours.
+const MEDIAN_WINDOW: usize = NEIGHBOURS + 1;
+
+/// First sample of the running median's window around `i` in a record of `n` (7 before, shifted
+/// at the ends).
+fn median_window(n: usize, i: usize) -> usize {
+    i.saturating_sub(NEIGHBOURS / 2).min(n - MEDIAN_WINDOW)
+}
+
 /// y_i minus the median of its 15 nearest neighbours (7 before and 8 after, shifted at the ends;
 /// y_i itself left out): the 8th smallest of the 15.
 fn median_residual_at(y: &[f64], i: usize) -> f64 {
-    const WIDTH: usize = NEIGHBOURS + 1;
-    let n = y.len();
-    let a = i.saturating_sub(NEIGHBOURS / 2).min(n - WIDTH);
+    let a = median_window(y.len(), i);
     let mut w = [0.0; NEIGHBOURS];
-    for (slot, k) in w.iter_mut().zip((a..a + WIDTH).filter(|&k| k != i)) {
+    for (slot, k) in w.iter_mut().zip((a..a + MEDIAN_WINDOW).filter(|&k| k != i)) {
         *slot = y[k];
     }
     y[i] - ranked(&w, NEIGHBOURS / 2)
@@ -282,13 +275,11 @@ fn median_residual_at(y: &[f64], i: usize) -> f64 {
 /// ([`median_residual_at`]) would keep is never dropped here; most of the ~5 % of samples the
 /// linear prescreen passes stop here (15 comparisons instead of a selection).
 fn median_may_exceed(y: &[f64], i: usize, limit: f64) -> bool {
-    const WIDTH: usize = NEIGHBOURS + 1;
-    let n = y.len();
-    let a = i.saturating_sub(NEIGHBOURS / 2).min(n - WIDTH);
+    let a = median_window(y.len(), i);
     let slack = 1e-9 * limit + 16.0 * f64::EPSILON * (y[i].abs() + 2.0 * limit);
     let (below, up_to) = (y[i] - limit + slack, y[i] + limit - slack);
     let (mut under, mut at_most) = (0usize, 0usize);
-    for (k, &v) in y[a..a + WIDTH].iter().enumerate() {
+    for (k, &v) in y[a..a + MEDIAN_WINDOW].iter().enumerate() {
         if a + k != i {
             under += usize::from(v < below);
             at_most += usize::from(v <= up_to);

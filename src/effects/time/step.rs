@@ -307,6 +307,33 @@ mod tests {
         }
     }
 
+    /// The block arg-max agrees with a plain scan (last of equals, as `max_by` picks) for every
+    /// stride, on noise and on a series with ties.
+    #[test]
+    fn largest_difference_matches_a_plain_scan() {
+        let mut rng = crate::sim::rng::Rng::new(3);
+        let noisy: Vec<f64> = rng.gauss_vec(20_001);
+        let tied: Vec<f64> = (0..20_001).map(|i| f64::from((i * 7919) % 5)).collect();
+        for s in [&noisy, &tied] {
+            let n = s.len() - 1;
+            for (w, stride) in [(8, 1), (16, 1), (64, 4), (512, 32), (40, 3)] {
+                for (first, last) in [(w, n - w), (w + 5, w + 4100), (w, w)] {
+                    let plain = (first..=last)
+                        .step_by(stride)
+                        .map(|k| (k, (s[k + w] - 2.0 * s[k] + s[k - w]).abs()))
+                        .max_by(|a, b| a.1.total_cmp(&b.1))
+                        .unwrap()
+                        .0;
+                    assert_eq!(
+                        largest_difference(s, w, first, last, stride),
+                        plain,
+                        "w {w} stride {stride} range {first}..={last}"
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn degenerate_inputs() {
         assert!(find_step(&[], FS, 0.68).is_none());
