@@ -238,6 +238,11 @@ fn main() {
     let only: Vec<String> = std::env::var("VALIDATION_CASES")
         .map(|v| v.split(',').map(str::to_owned).collect())
         .unwrap_or_default();
+    // `VALIDATION_VERBOSE=1` prints, per seed, the effects added, the candidates rejected in the
+    // last round and the final fits' terms (stderr).
+    let verbose = std::env::var_os("VALIDATION_VERBOSE").is_some();
+    // `VALIDATION_DUMP=path` appends one JSON line per record (fits, intervals, combined terms).
+    let dump = std::env::var_os("VALIDATION_DUMP");
     let mut edge_notes = Vec::new();
     for case in cases
         .iter()
@@ -263,6 +268,44 @@ fn main() {
                 continue;
             };
             tally.runs += 1;
+            if verbose {
+                eprintln!(
+                    "seed {}: added {:?}",
+                    FIRST_SEED + s,
+                    o.report
+                        .steps
+                        .iter()
+                        .map(|s| s.effect.kind())
+                        .collect::<Vec<_>>()
+                );
+                for r in &o.report.rejected {
+                    eprintln!("  rejected {} {:?}: {}", r.kind, r.delta_bic, r.note);
+                }
+                for f in [o.allan.as_ref(), o.spectrum.as_ref()]
+                    .into_iter()
+                    .flatten()
+                {
+                    eprintln!(
+                        "  fit {:?}",
+                        f.estimates
+                            .iter()
+                            .map(|e| (e.term.symbol(), e.value))
+                            .collect::<Vec<_>>()
+                    );
+                    if std::env::var_os("VALIDATION_POINTS").is_some() {
+                        for p in &f.points {
+                            eprintln!(
+                                "    x {:.4e} value {:.3e} model {:.3e} edf {:.1} z {:.2}",
+                                p.x,
+                                p.value.sqrt(),
+                                p.model.sqrt(),
+                                p.edf,
+                                p.z
+                            );
+                        }
+                    }
+                }
+            }
             tally.detected += usize::from(o.report.bandwidth.is_some());
             if !o.report.steps.is_empty() {
                 tally.with_effect += 1;
@@ -346,6 +389,36 @@ fn main() {
                     }
                     FitWarning::LoopLimitReached { .. } => "loop limit".to_string(),
                 });
+            }
+            if let Some(path) = &dump {
+                // One line per record: each domain's kept terms with intervals and misfit, and
+                // the combined terms (for calibration studies: `validation/calibration.py`).
+                let fit_json = |f: Option<&imunoise::model::NoiseFit>| {
+                    f.map(|f| {
+                        json!({
+                            "chi2_per_dof": f.chi2_per_dof(),
+                            "inflation": f.lack_of_fit.inflation,
+                            "points": f.points.len(),
+                            "terms": f.estimates.iter().map(|e| json!({"term": e.term.symbol(), "value": e.value, "lo": e.lo, "hi": e.hi, "edf": e.edf})).collect::<Vec<_>>(),
+                        })
+                    })
+                };
+                let line = json!({
+                    "case": case.name,
+                    "seed": FIRST_SEED + s,
+                    "truth": truths.iter().map(|(t, v)| (t.symbol().to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
+                    "allan": fit_json(o.allan.as_ref()),
+                    "spectrum": fit_json(o.spectrum.as_ref()),
+                    "combined": c.terms.iter().map(|t| json!({"term": t.term.symbol(), "value": t.value, "lo": t.lo, "hi": t.hi, "source": format!("{:?}", t.source), "hull": t.hull})).collect::<Vec<_>>(),
+                    "effects": o.report.steps.iter().map(|s| s.effect.kind()).collect::<Vec<_>>(),
+                });
+                use std::io::Write;
+                let mut f = std::fs::OpenOptions::new()
+                    .create(true)
+                    .append(true)
+                    .open(path)
+                    .unwrap();
+                writeln!(f, "{line}").unwrap();
             }
             for (i, (term, truth)) in truths.iter().enumerate() {
                 if let Some(e) = c.get(*term) {

@@ -35,6 +35,11 @@ pub struct FitOptions {
     /// [`crate::model::Bandwidth::restrict`]): the residual loop's line search runs up to its
     /// corner with the model multiplied by it, for narrow lines only.
     pub lowpass: Option<LowPass>,
+    /// Widen each kept term's interval by the uncertainty of the choice of terms (the spread of
+    /// its estimate over the competing subsets, weighted by their BIC weights: see
+    /// [`select`](super::select)). Off only for the many fits of a profile over an effect's shape
+    /// parameters, which use scores and not intervals.
+    pub selection_uncertainty: bool,
 }
 
 impl Default for FitOptions {
@@ -49,6 +54,7 @@ impl Default for FitOptions {
             min_tau_s: None,
             detect_bandwidth: true,
             lowpass: None,
+            selection_uncertainty: true,
         }
     }
 }

@@ -17,6 +17,7 @@ pub(super) fn profile_options(state: &State, cfg: &LoopConfig) -> FitOptions {
         .flat_map(|f| f.estimates.iter().map(|e| e.term))
         .collect();
     let mut opts = cfg.fit.clone();
+    opts.selection_uncertainty = false;
     if !kept.is_empty() {
         opts.terms.retain(|t| kept.contains(t));
     }
