@@ -410,7 +410,7 @@ fn main() {
                     "allan": fit_json(o.allan.as_ref()),
                     "spectrum": fit_json(o.spectrum.as_ref()),
                     "combined": c.terms.iter().map(|t| json!({"term": t.term.symbol(), "value": t.value, "lo": t.lo, "hi": t.hi, "source": format!("{:?}", t.source), "hull": t.hull})).collect::<Vec<_>>(),
-                    "effects": o.report.steps.iter().map(|s| s.effect.kind()).collect::<Vec<_>>(),
+                    "effects": o.report.steps.iter().map(|s| &s.effect).collect::<Vec<_>>(),
                 });
                 use std::io::Write;
                 let mut f = std::fs::OpenOptions::new()

@@ -44,11 +44,23 @@ pub struct BinnedPsd {
 /// Averages the bins of `psd` (DC and Nyquist excluded) in bands of 1/`bins_per_decade` decade.
 /// `bins_per_decade = 0` keeps every bin on its own (DC and Nyquist still dropped).
 pub fn log_bin(psd: &Psd, bins_per_decade: u32) -> BinnedPsd {
+    log_bin_resolving(psd, bins_per_decade, f64::NAN, f64::NAN)
+}
+
+/// [`log_bin`], except that the bins from `fine_lo_hz` to `fine_hi_hz` are kept on their own: a
+/// feature narrower than a band (a resonance of a few bins' width) keeps its shape there, where
+/// averaged into two or three bands its centre and width could trade against each other.
+pub fn log_bin_resolving(
+    psd: &Psd,
+    bins_per_decade: u32,
+    fine_lo_hz: f64,
+    fine_hi_hz: f64,
+) -> BinnedPsd {
     let mut n = psd.freq_hz.len().min(psd.value.len());
     if psd.nfft.is_multiple_of(2) && n == psd.nfft / 2 + 1 {
         n -= 1; // the Nyquist bin
     }
-    let bands = group(&psd.freq_hz[..n], bins_per_decade);
+    let bands = group(&psd.freq_hz[..n], bins_per_decade, (fine_lo_hz, fine_hi_hz));
     let half = psd.bin_width_hz() / 2.0;
     let mut out = BinnedPsd {
         freq_hz: Vec::with_capacity(bands.len()),
@@ -72,13 +84,17 @@ pub fn log_bin(psd: &Psd, bins_per_decade: u32) -> BinnedPsd {
 }
 
 /// Runs of consecutive bins k ≥ 1 that share the band ⌊bins_per_decade·log10 f_k⌋, as inclusive
-/// index ranges. Bins at f ≤ 0 (DC) are skipped.
-fn group(freq_hz: &[f64], bins_per_decade: u32) -> Vec<(usize, usize)> {
-    let band = |k: usize| -> i64 {
-        if bins_per_decade == 0 {
-            k as i64
+/// index ranges; bins inside `fine` (lo, hi in Hz; NaN: none) each on their own. Bins at f ≤ 0
+/// (DC) are skipped.
+fn group(freq_hz: &[f64], bins_per_decade: u32, fine: (f64, f64)) -> Vec<(usize, usize)> {
+    let band = |k: usize| -> (bool, i64) {
+        if bins_per_decade == 0 || (fine.0 <= freq_hz[k] && freq_hz[k] <= fine.1) {
+            (true, k as i64)
         } else {
-            (f64::from(bins_per_decade) * freq_hz[k].log10()).floor() as i64
+            (
+                false,
+                (f64::from(bins_per_decade) * freq_hz[k].log10()).floor() as i64,
+            )
         }
     };
     let mut bands: Vec<(usize, usize)> = Vec::new();
@@ -130,7 +146,7 @@ mod tests {
         // Δf = 1 Hz, 10 bands per decade: up to ~10 Hz each bin is alone (bands narrower than
         // Δf), from there bands of 10^0.1 ≈ 1.26× collect several bins.
         let f: Vec<f64> = (0..=100).map(f64::from).collect();
-        let bands = group(&f, 10);
+        let bands = group(&f, 10, (f64::NAN, f64::NAN));
         // Band edges 10^(j/10): [3.98, 5.01) holds 4 and 5; [79.4, 100) holds 80..=99.
         assert_eq!(&bands[..4], &[(1, 1), (2, 2), (3, 3), (4, 5)]);
         assert_eq!(&bands[bands.len() - 2..], &[(80, 99), (100, 100)]);
@@ -142,8 +158,24 @@ mod tests {
     }
 
     #[test]
+    fn bins_inside_the_fine_window_stay_single() {
+        let f: Vec<f64> = (0..=100).map(f64::from).collect();
+        let bands = group(&f, 10, (82.0, 84.0));
+        // [79.4, 100) is split: 80–81 grouped, 82, 83, 84 alone, 85–99 grouped.
+        assert_eq!(
+            &bands[bands.len() - 6..],
+            &[(80, 81), (82, 82), (83, 83), (84, 84), (85, 99), (100, 100)]
+        );
+        let covered: usize = bands.iter().map(|(a, b)| b - a + 1).sum();
+        assert_eq!(covered, 100);
+    }
+
+    #[test]
     fn zero_bins_per_decade_keeps_every_bin() {
         let f = [0.0, 0.5, 1.0, 1.5];
-        assert_eq!(group(&f, 0), vec![(1, 1), (2, 2), (3, 3)]);
+        assert_eq!(
+            group(&f, 0, (f64::NAN, f64::NAN)),
+            vec![(1, 1), (2, 2), (3, 3)]
+        );
     }
 }

@@ -33,7 +33,7 @@ use crate::model::{
     detect_bandwidth, fit_avar_with, fit_psd_with, Bandwidth, EffectEstimate, EffectShape,
     FitOptions, NoiseFit, Term,
 };
-use crate::psd::{log_bin, welch, BinnedPsd, Psd, WelchConfig};
+use crate::psd::{log_bin, log_bin_resolving, welch, BinnedPsd, Psd, WelchConfig};
 
 use super::excursion::{
     excursion_under_model, remove_excursion, BoxSearch, Excursion, LevelChange,

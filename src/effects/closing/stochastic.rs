@@ -147,15 +147,29 @@ pub(super) fn resonance_candidate(
     let nyquist = fs / 2.0;
     let q0 = (e.freq_hz / e.width_hz.max(state.psd.bin_width_hz())).clamp(0.5, 1e4);
     let profile_opts = profile_options(state, cfg);
-    let fit_with = |f0: f64, q: f64, opts: &FitOptions| -> (f64, Option<NoiseFit>) {
+    // The searches and profiles run on the spectrum with the bins around the excess unaveraged
+    // (within 4 half-power widths and the profile's reach): the loop's bands are wider than a
+    // resonance of Q ≳ 10 there (a twentieth of a decade at 8 Hz is 0.98 Hz; the half-power
+    // width of Q 20 is 0.4 Hz), and over two or three bands f₀ and Q trade against each other,
+    // which the profile of one at the other's optimum does not see: Q's 1σ interval covered the
+    // truth in 38 % of 50 seeds. The candidate's own fit, whose score the loop compares with the
+    // current model's, stays on the loop's bands.
+    let reach = 4.0 * e.width_hz.max(e.freq_hz / q0);
+    let resolved = log_bin_resolving(
+        &state.psd,
+        cfg.bins_per_decade.max(1),
+        e.freq_hz - reach,
+        e.freq_hz + reach,
+    );
+    let fit_with = |f0: f64, q: f64, binned: &BinnedPsd, opts: &FitOptions| {
         if !(f0 > 0.0 && f0 < nyquist) {
             return (f64::INFINITY, None);
         }
         let shape = Resonance::new(f0, q, fs);
-        let spectrum = fit_psd_with(&state.psd, &state.binned, opts, Some(&shape)).ok();
+        let spectrum = fit_psd_with(&state.psd, binned, opts, Some(&shape)).ok();
         (spectrum.as_ref().map_or(f64::INFINITY, score), spectrum)
     };
-    let fit_at = |f0: f64, q: f64| fit_with(f0, q, &profile_opts);
+    let fit_at = |f0: f64, q: f64| fit_with(f0, q, &resolved, &profile_opts);
     let mut q_points: Vec<(f64, f64, Option<EffectEstimate>)> = Vec::new();
     let mut f_points: Vec<(f64, f64, Option<EffectEstimate>)> = Vec::new();
     let (lq_lo, lq_hi) = ((q0 / 8.0).max(0.5).ln(), (q0 * 8.0).min(1e4).ln());
@@ -222,13 +236,14 @@ pub(super) fn resonance_candidate(
         .chain(&f_points)
         .map(|p| p.1)
         .fold(best, f64::min);
-    let (_, spectrum) = fit_with(f0, q, &cfg.fit);
+    let (_, spectrum) = fit_with(f0, q, &state.binned, &cfg.fit);
     let shape = Resonance::new(f0, q, fs);
     let allan = fit_avar_with(&state.dev, &cfg.fit, Some(&shape)).ok();
     let (ds, da) = stochastic_delta(state, allan.as_ref(), spectrum.as_ref(), 2.0)?;
     let mut sigma = spectrum.as_ref()?.effect?;
-    let dispersion = spectrum
-        .as_ref()
+    // The profiles' scale: the misfit of the spectrum they were computed on.
+    let dispersion = fit_at(f0, q)
+        .1
         .map_or(1.0, |f| f.lack_of_fit.inflation.powi(2));
     let threshold = norm_isf((1.0 - p) / 2.0).powi(2) * dispersion;
     let (q_lo, q_hi, sq) = profile_range(&q_points, best, threshold, true);
