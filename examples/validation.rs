@@ -45,6 +45,10 @@ fn truth() -> Coefficients {
 
 #[derive(Default)]
 struct Tally {
+    /// Records whose combined result has a rate ramp (none is planted), and how many of those
+    /// flag it as indistinguishable from K.
+    ramps: usize,
+    ramps_ambiguous: usize,
     /// Excursions found: how often each edge's interval covered the planted time, and the
     /// interval widths (s).
     edges_found: usize,
@@ -377,6 +381,11 @@ fn main() {
             )
             .ok();
             let c = combine(o.allan.as_ref(), o.spectrum.as_ref(), dev.as_ref());
+            if verbose {
+                for w in &c.warnings {
+                    eprintln!("  warning {}", w.describe());
+                }
+            }
             tally.warnings += usize::from(!c.warnings.is_empty());
             for w in &c.warnings {
                 tally.warning_kinds.push(match w {
@@ -399,7 +408,7 @@ fn main() {
                             "chi2_per_dof": f.chi2_per_dof(),
                             "inflation": f.lack_of_fit.inflation,
                             "points": f.points.len(),
-                            "terms": f.estimates.iter().map(|e| json!({"term": e.term.symbol(), "value": e.value, "lo": e.lo, "hi": e.hi, "edf": e.edf})).collect::<Vec<_>>(),
+                            "terms": f.estimates.iter().map(|e| json!({"term": e.term.symbol(), "value": e.value, "lo": e.lo, "hi": e.hi, "edf": e.edf, "ambiguous_with": e.ambiguous_with.map(|a| a.symbol())})).collect::<Vec<_>>(),
                         })
                     })
                 };
@@ -409,7 +418,7 @@ fn main() {
                     "truth": truths.iter().map(|(t, v)| (t.symbol().to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
                     "allan": fit_json(o.allan.as_ref()),
                     "spectrum": fit_json(o.spectrum.as_ref()),
-                    "combined": c.terms.iter().map(|t| json!({"term": t.term.symbol(), "value": t.value, "lo": t.lo, "hi": t.hi, "source": format!("{:?}", t.source), "hull": t.hull})).collect::<Vec<_>>(),
+                    "combined": c.terms.iter().map(|t| json!({"term": t.term.symbol(), "value": t.value, "lo": t.lo, "hi": t.hi, "source": format!("{:?}", t.source), "hull": t.hull, "ambiguous_with": t.ambiguous_with.map(|a| a.symbol())})).collect::<Vec<_>>(),
                     "effects": o.report.steps.iter().map(|s| &s.effect).collect::<Vec<_>>(),
                 });
                 use std::io::Write;
@@ -419,6 +428,10 @@ fn main() {
                     .open(path)
                     .unwrap();
                 writeln!(f, "{line}").unwrap();
+            }
+            if let Some(r) = c.get(Term::RateRamp) {
+                tally.ramps += 1;
+                tally.ramps_ambiguous += usize::from(r.ambiguous_with.is_some());
             }
             for (i, (term, truth)) in truths.iter().enumerate() {
                 if let Some(e) = c.get(*term) {
@@ -463,6 +476,12 @@ fn main() {
             pct(tally.kept[2], tally.runs),
         );
         let _ = runs;
+        if tally.ramps > 0 {
+            edge_notes.push(format!(
+                "{}: a rate ramp (none planted) in the combined result of {} of {} records, {} of them flagged as not distinguishable from K.",
+                case.name, tally.ramps, tally.runs, tally.ramps_ambiguous
+            ));
+        }
         if tally.edges_found > 0 && case.expect == Some("step") {
             edge_notes.push(format!(
                 "{}: of {} steps found, the 1σ interval of the time covers the planted 600 s in {}; median interval width {:.1} s.",

@@ -39,7 +39,7 @@ use serde::Serialize;
 use crate::psd::{BinnedPsd, Psd};
 
 use super::fit::{members, Mask, Problem};
-use super::psd_fit::{filtered_basis, spectrum_problem, BandSamples};
+use super::psd_fit::{filtered_basis, spectrum_problem, spectrum_terms, BandSamples};
 use super::select::rank_subsets;
 use super::{FitOptions, Term};
 
@@ -220,7 +220,7 @@ pub fn detect_bandwidth(
     if full.len() < 8 {
         return None;
     }
-    let allowed = opts.mask();
+    let allowed = spectrum_terms(opts);
     let white = 1u8 << Term::RandomWalk.index();
     let mask = best_mask(&full, allowed, opts)? | (white & allowed);
     if mask & white == 0 {
@@ -375,7 +375,7 @@ fn checked_edge(full: &Problem, x: &[f64], opts: &FitOptions, mask: Mask, edge: 
         }
         // The terms the fit itself would choose on this band (quantisation's rise can hide a
         // deficit from a model fixed on the whole band).
-        let mask = best_mask(&p, opts.mask(), opts).unwrap_or(mask);
+        let mask = best_mask(&p, spectrum_terms(opts), opts).unwrap_or(mask);
         let fit = p.irls(mask);
         let (z, _, _) = p.likelihood(&fit);
         let floor = edge / 10f64.powf(0.2);
