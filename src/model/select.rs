@@ -402,7 +402,7 @@ mod tests {
             c: [0.0; TERMS],
         };
         // Mean (4·1 + 0·0.25)/1.25 = 3.2; spread (0.8²·1 + 3.2²·0.25)/1.25 = 2.56.
-        let mean = averaged(c, j, &[lacking.clone()]);
+        let mean = averaged(c, j, std::slice::from_ref(&lacking));
         assert!((mean - 3.2).abs() < 1e-12, "{mean}");
         let v = unconditional_variance(mean, c, var, j, &[lacking]);
         assert!((v - (0.25 + 2.56)).abs() < 1e-12, "{v}");
