@@ -8,7 +8,7 @@
 //! start at 900 000, disjoint from every test. `validation/run.sh` writes `validation/results.md`.
 
 use imunoise::avar::{compute, Confidence, Statistic, TauGrid};
-use imunoise::effects::{close_loop, LoopConfig};
+use imunoise::effects::{close_loop, AuxSeries, LoopConfig};
 use imunoise::model::{combine, CoefUnit, Coefficients, FitWarning, Term};
 use imunoise::sim::{simulate, SimSpec};
 use serde_json::json;
@@ -17,6 +17,13 @@ const FS: f64 = 100.0;
 const FIRST_SEED: u64 = 900_000;
 /// The planted resonance: f₀ (Hz), Q, σ (rad/s).
 const RESONANCE: (f64, f64, f64) = (8.0, 20.0, 1.5e-4);
+/// The recording's temperature: a 4 °C warm-up with a 600-s time constant, a 0.3-°C wander of
+/// 300-s correlation time, 0.01 °C of measurement noise (a coupling of 5e-5 rad/s per °C drifts
+/// 2e-4 rad/s over the warm-up, 14× B).
+fn temperature_spec() -> serde_json::Value {
+    json!({ "start_degc": 20.0, "rise_degc": 4.0, "warmup_s": 600.0,
+            "wander": { "sigma": 0.3, "tc_s": 300.0 }, "noise_degc": 0.01 })
+}
 /// Outliers planted in the outlier case (1 % of a 1800-s record at 100 Hz).
 const OUTLIERS: usize = 1800;
 /// 10σ of 10-s means of the white noise: 10·N/√10 s.
@@ -55,6 +62,11 @@ struct Tally {
     /// Resonances found: how often the 1σ intervals of f₀, Q and σ covered the planted values, and
     /// the ratios of the estimates to them.
     resonances_found: usize,
+    /// Couplings found: how often the 1σ interval of the coefficient covered the planted one, and
+    /// the ratios of the estimates to it.
+    couplings_found: usize,
+    coupling_covered: usize,
+    coupling_ratios: Vec<f64>,
     resonance_covered: [usize; 3],
     resonance_ratios: [Vec<f64>; 3],
     edge_covered: [usize; 2],
@@ -195,6 +207,30 @@ fn main() {
             rate: None,
         },
         Case {
+            name: "temperature coupling 5e-5 rad/s/°C (warm-up 4 °C, Tc 600 s, wander 0.3 °C)",
+            filtered: false,
+            extra: json!({ "temperature_coefficient": 5e-5, "temperature": temperature_spec() }),
+            expect: Some("coupling"),
+            seconds: None,
+            rate: None,
+        },
+        Case {
+            name: "temperature coupling 1e-4 rad/s/°C (the same temperature)",
+            filtered: false,
+            extra: json!({ "temperature_coefficient": 1e-4, "temperature": temperature_spec() }),
+            expect: Some("coupling"),
+            seconds: None,
+            rate: None,
+        },
+        Case {
+            name: "independent temperature channel, no coupling (negative control)",
+            filtered: false,
+            extra: json!({ "temperature": temperature_spec() }),
+            expect: None,
+            seconds: None,
+            rate: None,
+        },
+        Case {
             name: "outliers: 1 % of samples ±8 white σ",
             filtered: false,
             extra: json!({ "spikes": { "count": OUTLIERS, "size": 8.0 * CoefUnit::DegPerSqrtH.to_si(0.15) * FS.sqrt() } }),
@@ -255,8 +291,13 @@ fn main() {
         let mut tally = Tally::default();
         for s in 0..seeds {
             let mut ch = json!({ "name": "g", "sensor": "gyro", "noise": t });
+            let mut temperature = None;
             for (k, v) in case.extra.as_object().unwrap() {
-                if k == "noise" {
+                if k == "temperature" {
+                    // The recording's temperature channel (spec level), given to the loop as
+                    // its aux channel.
+                    temperature = Some(v.clone());
+                } else if k == "noise" {
                     for (nk, nv) in v.as_object().unwrap() {
                         ch["noise"][nk] = nv.clone();
                     }
@@ -265,10 +306,21 @@ fn main() {
                 }
             }
             let fs = case.rate.unwrap_or(FS);
-            let spec = json!({ "rate_hz": fs, "duration_s": case.seconds.unwrap_or(seconds), "seed": FIRST_SEED + s, "channels": [ch] });
+            let mut spec = json!({ "rate_hz": fs, "duration_s": case.seconds.unwrap_or(seconds), "seed": FIRST_SEED + s, "channels": [ch] });
+            if let Some(t) = &temperature {
+                spec["temperature"] = t.clone();
+            }
             let spec: SimSpec = serde_json::from_value(spec).unwrap();
-            let y = simulate(&spec).unwrap().channels.remove(0).samples;
-            let Some(o) = close_loop(&y, fs, &[], &cfg, None) else {
+            let (mut columns, _) = simulate(&spec).unwrap().into_columns();
+            let y = columns.remove(0);
+            let aux: Vec<AuxSeries<'_>> = columns
+                .iter()
+                .map(|c| AuxSeries {
+                    name: "temperature",
+                    samples: c,
+                })
+                .collect();
+            let Some(o) = close_loop(&y, fs, &aux, &cfg, None) else {
                 continue;
             };
             tally.runs += 1;
@@ -327,6 +379,15 @@ fn main() {
             for s in &o.report.steps {
                 if let imunoise::effects::Effect::Spikes(sp) = &s.effect {
                     tally.spikes_found += sp.indices.len();
+                }
+                if let imunoise::effects::Effect::Coupling { fit, .. } = &s.effect {
+                    if case.expect == Some("coupling") {
+                        let planted = case.extra["temperature_coefficient"].as_f64().unwrap();
+                        tally.couplings_found += 1;
+                        tally.coupling_covered +=
+                            usize::from(fit.lo <= planted && planted <= fit.hi);
+                        tally.coupling_ratios.push(fit.coefficient / planted);
+                    }
                 }
                 if let imunoise::effects::Effect::Step(st) = &s.effect {
                     tally.edges_found += 1;
@@ -476,6 +537,15 @@ fn main() {
             pct(tally.kept[2], tally.runs),
         );
         let _ = runs;
+        if tally.couplings_found > 0 {
+            edge_notes.push(format!(
+                "{}: of {} couplings found, the 1σ interval of the coefficient covers the planted one in {}; median ratio to it {:.3}.",
+                case.name,
+                tally.couplings_found,
+                pct(tally.coupling_covered, tally.couplings_found),
+                median(&mut tally.coupling_ratios)
+            ));
+        }
         if tally.ramps > 0 {
             edge_notes.push(format!(
                 "{}: a rate ramp (none planted) in the combined result of {} of {} records, {} of them flagged as not distinguishable from K.",
