@@ -35,10 +35,10 @@ pub struct FitOptions {
     /// [`crate::model::Bandwidth::restrict`]): the residual loop's line search runs up to its
     /// corner with the model multiplied by it, for narrow lines only.
     pub lowpass: Option<LowPass>,
-    /// Widen each kept term's interval by the uncertainty of the choice of terms (the spread of
-    /// its estimate over the competing subsets, weighted by their BIC weights: see
+    /// Count the choice of terms as uncertain: each kept term's value averaged over the competing
+    /// subsets with their BIC weights and its interval widened by their spread (see
     /// [`select`](super::select)). Off only for the many fits of a profile over an effect's shape
-    /// parameters, which use scores and not intervals.
+    /// parameters, which use scores and not the estimates.
     pub selection_uncertainty: bool,
 }
 

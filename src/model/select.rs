@@ -382,9 +382,10 @@ fn lack_of_fit(z: &[f64], x: &[f64], chi2: f64, dof: usize) -> LackOfFit {
 mod tests {
     use super::*;
 
-    /// The unconditional variance: a rival with the same estimate changes nothing, one
-    /// that lacks the term (puts it at 0) widens by its weight times the estimate, the weights
-    /// are relative to the chosen subset's (1).
+    /// The averaged estimate and its variance: a rival with the same estimate changes neither,
+    /// one that lacks the term (puts it at 0) pulls the mean down by its share of the weights and
+    /// adds the weighted spread about the mean; the weights are relative to the chosen subset's
+    /// (1).
     #[test]
     fn rivals_widen_by_their_weighted_distance() {
         let (c, var, j) = (4.0, 0.25, 2);

@@ -135,7 +135,7 @@ pub(super) fn profile_range(
 /// optimum, which a Lorentzian's nearly uncorrelated centre and width allow), ends interpolated
 /// between trial points ([`profile_range`]), and σ the union of its conditional intervals over both.
 /// Measured over 50 seeds of a 30-min record (8 Hz, Q 20, peak ≈ 30× the floor;
-/// `validation/results.md`): 1σ coverage f₀ 54 %, Q 72 %, σ 76 %, median ratios to the truth
+/// `validation/results.md`): 1σ coverage f₀ 52 %, Q 72 %, σ 76 %, median ratios to the truth
 /// 0.9999, 1.003, 1.003; on 2-h records f₀ 66 %, Q 68 %, σ 66 % (at 30 min f₀ scatters 0.0077 Hz
 /// where its intervals say 0.0063: the likelihood's curvature is still short of its asymptote).
 /// Holding the other parameter at its optimum is not what narrows f₀'s interval: profiled with
