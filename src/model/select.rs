@@ -101,7 +101,7 @@ pub(crate) fn select_and_fit(
         .iter()
         .position(|(c, _)| c.proper && c.score.is_finite())
         .ok_or(FitError::NoSignal)?;
-    let mut mask = fits[best].1;
+    let mut mask = prefer_random_walk(fits[best].1, allowed, &fits);
     // Refit on the problem itself; should that clamp a term (a screening/final difference near
     // the criterion's threshold), the term goes.
     let mut fit = problem.irls(mask);
@@ -297,6 +297,41 @@ fn unconditional_variance(mean: f64, chosen: f64, var: f64, j: usize, rivals: &[
     var + spread / total
 }
 
+/// The chosen `mask`, with a rate ramp the data cannot tell from a rate random walk replaced by
+/// the random walk: where the subset with K in R's place scores within [`AMBIGUITY_BIC`] of the
+/// best, K is kept instead.
+///
+/// Why: over a record a few correlation-free times long, one realisation of a rate random walk
+/// wanders off in one direction and its longest-τ Allan points rise like a ramp's; the ramp is
+/// the deterministic reading of what the random walk produces by chance, and a fit that cannot
+/// tell them apart has not determined a ramp. Measured on 50 clean 30-min records (N, B, K, no
+/// ramp): the Allan fit chose a ramp in 12, 9 of them with K's swap within 6 BIC. The rivals
+/// with R still enter the averaged estimates and their spread, and K carries the ambiguity flag.
+fn prefer_random_walk(mask: Mask, allowed: Mask, fits: &[(Candidate, Mask)]) -> Mask {
+    let (k, r) = (
+        1 << Term::RateRandomWalk as usize,
+        1 << Term::RateRamp as usize,
+    );
+    if mask & r == 0 || mask & k != 0 || allowed & k == 0 {
+        return mask;
+    }
+    let eligible = |c: &Candidate| c.proper && c.score.is_finite();
+    let best = fits
+        .iter()
+        .filter(|(c, _)| eligible(c))
+        .map(|(c, _)| c.score)
+        .fold(f64::INFINITY, f64::min);
+    let swapped = (mask & !r) | k;
+    let close = fits
+        .iter()
+        .any(|(c, m)| *m == swapped && eligible(c) && c.score - best < AMBIGUITY_BIC);
+    if close {
+        swapped
+    } else {
+        mask
+    }
+}
+
 /// BIC difference within which a model with a neighbour in a term's place is as good: "positive"
 /// evidence at most on the Kass–Raftery scale.
 pub const AMBIGUITY_BIC: f64 = 6.0;
@@ -409,6 +444,31 @@ mod tests {
         assert!((v - (0.25 + 2.56)).abs() < 1e-12, "{v}");
         // An infinite variance (dependent columns) stays infinite.
         assert!(unconditional_variance(c, c, f64::INFINITY, j, &[]).is_infinite());
+    }
+
+    /// A ramp chosen over K by less than [`AMBIGUITY_BIC`] gives way to K; by more, or with K
+    /// already in the model or not allowed, it stays.
+    #[test]
+    fn a_ramp_that_k_fits_as_well_gives_way_to_k() {
+        let (n, b, k, r) = (1 << 1, 1 << 2, 1 << 3, 1 << 4);
+        let cand = |score: f64| Candidate {
+            terms: Vec::new(),
+            chi2: 0.0,
+            score,
+            proper: true,
+        };
+        let all = n | b | k | r;
+        let close = vec![(cand(0.0), n | b | r), (cand(5.0), n | b | k)];
+        assert_eq!(prefer_random_walk(n | b | r, all, &close), n | b | k);
+        assert_eq!(prefer_random_walk(n | b | r, n | b | r, &close), n | b | r);
+        let far = vec![(cand(0.0), n | b | r), (cand(7.0), n | b | k)];
+        assert_eq!(prefer_random_walk(n | b | r, all, &far), n | b | r);
+        let both = vec![(cand(0.0), n | k | r), (cand(1.0), n | k)];
+        assert_eq!(prefer_random_walk(n | k | r, all, &both), n | k | r);
+        // An improper swap (its fit clamped a term) is no alternative.
+        let mut improper = close.clone();
+        improper[1].0.proper = false;
+        assert_eq!(prefer_random_walk(n | b | r, all, &improper), n | b | r);
     }
 
     #[test]
