@@ -444,6 +444,16 @@ impl LogTable {
 
 /// Autocovariance (lags 0..m) of the increments of `block`-sample means of a series at `fs` with
 /// one-sided density `density`.
+///
+/// The density is folded onto the block-mean band: bin u (in cycles per block) collects the
+/// aliases a = n + u and n + 1 − u (n = 0, 1, …, a ≤ block/2), each weighted by the block mean's
+/// gain (sin(π·a)/(block·sin(π·a/block)))². Its numerator sin²(π·a) = sin²(π·u) is the same at
+/// every alias of a bin, so it is taken out of the alias sum, and what is left per alias,
+/// density(f)/(block·sin(πf/fs))², is smooth on (0, fs/2] and tabulated once on a log-frequency
+/// grid (2048 points per decade, linear in log f: below 5e-6 relative for power laws as steep as
+/// f⁻⁵; a resonance of Q = 50 spans 16 points of its half-power width, 4e-4 on the covariance) instead of being evaluated, with two
+/// sines, at each of the ~2·256·4096 alias points (a tenth of the loop's time on 10⁷-sample
+/// records). [`tests::folding_matches_the_direct_alias_sum`] checks it against that direct sum.
 pub fn increment_autocovariance(
     density: &dyn Fn(f64) -> f64,
     fs: f64,
@@ -455,22 +465,12 @@ pub fn increment_autocovariance(
     let bins = 8 * m.max(1);
     let du = 0.5 / bins as f64;
     let half_band = block as f64 / 2.0;
-    let gain = |f: f64| {
-        let x = PI * f / fs;
-        let den = block as f64 * x.sin();
-        if den.abs() < 1e-300 {
-            1.0
-        } else {
-            let g = (block as f64 * x).sin() / den;
-            g * g
-        }
+    let per_alias = |f: f64| {
+        let den = block as f64 * (PI * f / fs).sin();
+        density(f) / (den * den)
     };
-    // The density is tabulated once on a log-frequency grid (512 points per decade, linear
-    // interpolation in log f: below 1e-5 relative for the power laws, and a resonance of Q ≤ 100
-    // spans several points) instead of being evaluated at each of the ~2·256·8M alias points.
     let f_lo = 0.5 * du * fb;
-    let table = LogTable::new(density, f_lo, fs / 2.0, 512.0);
-    let density = |f: f64| table.at(f);
+    let table = LogTable::new(&per_alias, f_lo, fs / 2.0, 2048.0);
     let folded: Vec<f64> = (0..bins)
         .map(|i| {
             let u = (i as f64 + 0.5) * du;
@@ -478,16 +478,15 @@ pub fn increment_autocovariance(
             for n in 0..=MAX_ALIASES {
                 for a in [n as f64 + u, n as f64 + 1.0 - u] {
                     if a <= half_band {
-                        let f = a * fb;
-                        p += density(f) * gain(f);
+                        p += table.at(a * fb);
                     }
                 }
                 if n as f64 > half_band {
                     break;
                 }
             }
-            let s = (PI * u).sin();
-            fb * p * 4.0 * s * s * du
+            let s2 = (PI * u).sin().powi(2);
+            fb * p * s2 * 4.0 * s2 * du
         })
         .collect();
     cosine_sums(&folded, du, m)
@@ -583,6 +582,64 @@ mod tests {
                 }
                 let want = if i == j { 1.0 } else { 0.0 };
                 assert!((s - want).abs() < 1e-9, "({i},{j}): {s}");
+            }
+        }
+    }
+
+    /// The folded density agrees with the alias sum evaluated directly (the density and the
+    /// block mean's gain at every alias, no table), for white noise, a random walk, flicker and a
+    /// narrow resonance, at a short and a long block.
+    #[test]
+    fn folding_matches_the_direct_alias_sum() {
+        use std::f64::consts::PI;
+        fn direct(density: &dyn Fn(f64) -> f64, fs: f64, block: usize, m: usize) -> Vec<f64> {
+            let fb = fs / block as f64;
+            let bins = 8 * m;
+            let du = 0.5 / bins as f64;
+            let gain = |f: f64| {
+                let x = PI * f / fs;
+                let g = (block as f64 * x).sin() / (block as f64 * x.sin());
+                g * g
+            };
+            let folded: Vec<f64> = (0..bins)
+                .map(|i| {
+                    let u = (i as f64 + 0.5) * du;
+                    let mut p = 0.0;
+                    for n in 0..=MAX_ALIASES {
+                        for a in [n as f64 + u, n as f64 + 1.0 - u] {
+                            if a <= block as f64 / 2.0 {
+                                p += density(a * fb) * gain(a * fb);
+                            }
+                        }
+                    }
+                    fb * p * 4.0 * (PI * u).sin().powi(2) * du
+                })
+                .collect();
+            cosine_sums(&folded, du, m)
+        }
+        let fs = 100.0;
+        let resonance = |f: f64| {
+            let (f0, q) = (7.0, 50.0);
+            1e-6 / ((f * f - f0 * f0).powi(2) + (f * f0 / q).powi(2))
+        };
+        // (density, tolerance relative to the lag-0 variance): measured 4–7e-7 on the power
+        // laws, 3–4e-4 on the resonance (16 table points across its half-power width).
+        let cases: [(&dyn Fn(f64) -> f64, f64); 4] = [
+            (&|_f: f64| 2e-6, 2e-6),
+            (&|f: f64| 1e-9 / (f * f) + 1e-6, 2e-6),
+            (&|f: f64| 1e-7 / f + 1e-6, 2e-6),
+            (&resonance, 1e-3),
+        ];
+        for (density, tolerance) in cases {
+            for block in [6, 350] {
+                let fast = increment_autocovariance(density, fs, block, 64);
+                let want = direct(density, fs, block, 64);
+                for (k, (a, b)) in fast.iter().zip(&want).enumerate() {
+                    assert!(
+                        (a - b).abs() <= tolerance * want[0].abs(),
+                        "block {block} lag {k}: {a} vs {b}"
+                    );
+                }
             }
         }
     }
