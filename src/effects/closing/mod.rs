@@ -513,9 +513,22 @@ fn propose(
 
     // The time-domain detectors are independent: run side by side, so that a channel that is
     // analysed alone (the last of three on two cores) still uses every core.
-    let ((spikes, step), slow) = rayon::join(
-        || rayon::join(|| find_spikes(y, fs), || find_step(y, fs, p)),
-        || slow_candidates(state, fs, aux, cfg, p),
+    // The Gauss–Markov candidate (a search over correlation times with a refit each) depends on
+    // the state alone and runs beside them too.
+    let (((spikes, step), slow), gauss_markov) = rayon::join(
+        || {
+            rayon::join(
+                || rayon::join(|| find_spikes(y, fs), || find_step(y, fs, p)),
+                || slow_candidates(state, fs, aux, cfg, p),
+            )
+        },
+        || {
+            state
+                .stochastic
+                .is_none()
+                .then(|| gauss_markov_candidate(state, fs, cfg, p))
+                .flatten()
+        },
     );
     if !spikes.indices.is_empty() {
         let s = spikes.clone();
@@ -565,6 +578,7 @@ fn propose(
     out.extend(slow);
 
     let Some(spectrum) = &state.spectrum else {
+        out.extend(gauss_markov);
         return out;
     };
     let stochastic = state.stochastic.as_ref();
@@ -642,11 +656,7 @@ fn propose(
             ));
         }
     }
-    if stochastic.is_none() {
-        if let Some(c) = gauss_markov_candidate(state, fs, cfg, p) {
-            out.push(c);
-        }
-    }
+    out.extend(gauss_markov);
     out
 }
 

@@ -308,14 +308,20 @@ pub(super) fn gauss_markov_candidate(
         spectrum: Option<NoiseFit>,
     }
     let profile_opts = profile_options(state, cfg);
-    let point = |tc: f64, opts: &FitOptions| -> Option<Point> {
+    // `always_spectrum`: fit the spectrum even where the knee is invisible there (the chosen
+    // point's spectrum fit becomes the model's); on the profile an invisible knee's spectrum fit
+    // decides nothing and is skipped (most of the Tc grid lies below the lowest band: the
+    // profile's spectrum fits were a third of the candidate's time).
+    let point = |tc: f64, opts: &FitOptions, always_spectrum: bool| -> Option<Point> {
         let shape = GaussMarkov1 { tc_s: tc };
-        let spectrum = fit_psd_with(&state.psd, &state.binned, opts, Some(&shape)).ok();
-        let allan = fit_avar_with(&state.dev, opts, Some(&shape)).ok()?;
         // A knee below the spectrum fit's lowest band is invisible there: only the Allan fit
         // votes.
         let knee = 1.0 / (2.0 * std::f64::consts::PI * tc);
         let visible = knee >= lowest_band;
+        let spectrum = (visible || always_spectrum)
+            .then(|| fit_psd_with(&state.psd, &state.binned, opts, Some(&shape)).ok())
+            .flatten();
+        let allan = fit_avar_with(&state.dev, opts, Some(&shape)).ok()?;
         let da = score(&allan) + (allan.points.len() as f64).ln() - score(a0);
         let ds = spectrum.as_ref().map_or(f64::INFINITY, |f| {
             score(f) + (f.points.len() as f64).ln() - score(s0)
@@ -347,12 +353,13 @@ pub(super) fn gauss_markov_candidate(
             point(
                 lo * (hi / lo).powf(k as f64 / steps.max(1) as f64),
                 &profile_opts,
+                false,
             )
         })
         .collect();
     let restricted_best = profile.iter().min_by(|a, b| a.delta.total_cmp(&b.delta))?;
     // The optimum again with every base term allowed: the candidate's fits and ΔBIC.
-    let best = &point(restricted_best.tc, &cfg.fit)?;
+    let best = &point(restricted_best.tc, &cfg.fit, true)?;
     let tc = best.tc;
     let shape = GaussMarkov1 { tc_s: tc };
     // σ from the domain that sees the process; it is tied to Tc (a longer correlation time puts

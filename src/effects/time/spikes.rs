@@ -55,6 +55,8 @@ const SCALE_SAMPLES: usize = 1 << 16;
 const PRESCREEN: f64 = 2.0;
 /// Neighbours in the running median (odd).
 const NEIGHBOURS: usize = 15;
+/// Samples per block of the prescreen's parallel pass.
+const PRESCREEN_BLOCK: usize = 1 << 16;
 /// Least move, in units of the residual scale σ, that the conditional draw must make for a
 /// detected sample to count as a spike (see [`find_spikes`]).
 const MIN_MOVE: f64 = 1.0;
@@ -136,11 +138,17 @@ pub fn find_spikes(y: &[f64], rate_hz: f64) -> Spikes {
     let l_scale = (l_scale * l_scale + delta * delta / 4.0).sqrt();
     // (Ascending: the prescreen scans in order.)
     let candidate_limit = (t - 1.0) * sigma;
-    let excess_at: Vec<(usize, f64)> = linear_prescreen(y, PRESCREEN * l_scale)
-        .into_iter()
-        .filter(|&i| median_may_exceed(y, i, candidate_limit))
-        .map(|i| (i, median_residual_at(y, i)))
-        .filter(|(_, r)| r.abs() > candidate_limit)
+    // In blocks, in parallel (the loop's other detectors may leave a core idle), ascending.
+    let excess_at: Vec<(usize, f64)> = (0..n.div_ceil(PRESCREEN_BLOCK))
+        .into_par_iter()
+        .flat_map_iter(|b| {
+            let range = b * PRESCREEN_BLOCK..((b + 1) * PRESCREEN_BLOCK).min(n);
+            linear_prescreen(y, range, PRESCREEN * l_scale)
+                .into_iter()
+                .filter(|&i| median_may_exceed(y, i, candidate_limit))
+                .map(|i| (i, median_residual_at(y, i)))
+                .filter(|(_, r)| r.abs() > candidate_limit)
+        })
         .collect();
     let mut candidates = vec![false; n];
     for &(i, _) in &excess_at {
@@ -171,6 +179,10 @@ pub fn find_spikes(y: &[f64], rate_hz: f64) -> Spikes {
         })
         .collect();
     let indices: Vec<usize> = confirmed.iter().map(|c| c.0).collect();
+    if indices.is_empty() {
+        // (The fill's variogram costs a pass over a spread of the record, even for nothing.)
+        return out;
+    }
     let removal = conditional_fill(y, &indices, &candidates)
         .unwrap_or_else(|| confirmed.iter().map(|c| c.1).collect());
     // A sample its conditional draw hardly moves (by less than σ) is consistent with its clean
@@ -309,26 +321,27 @@ fn ranked(w: &[f64; NEIGHBOURS], k: usize) -> f64 {
     *x
 }
 
-/// The samples whose plain linear residual (the mean of the 15-sample window without y_i, no
-/// sample left out) exceeds `limit`: one sliding-sum pass, no record-length buffer.
-fn linear_prescreen(y: &[f64], limit: f64) -> Vec<usize> {
+/// The samples in `range` whose plain linear residual (the mean of the 15-sample window without
+/// y_i, no sample left out) exceeds `limit`: one sliding-sum pass, no record-length buffer.
+fn linear_prescreen(y: &[f64], range: std::ops::Range<usize>, limit: f64) -> Vec<usize> {
     const WIDTH: usize = NEIGHBOURS;
     let n = y.len();
     let mut out = Vec::new();
-    let mut start = 0;
-    let mut sum: f64 = y[..WIDTH].iter().sum();
-    for i in 0..n {
+    let mut start = range.start.saturating_sub(WIDTH / 2).min(n - WIDTH);
+    let mut sum: f64 = y[start..start + WIDTH].iter().sum();
+    let scaled_limit = (WIDTH - 1) as f64 * limit;
+    for i in range {
         let a = i.saturating_sub(WIDTH / 2).min(n - WIDTH);
         while start < a {
             sum += y[start + WIDTH] - y[start];
             start += 1;
-            if start % 4096 == 0 {
+            if start.is_multiple_of(4096) {
                 // Summed afresh now and then, so that rounding cannot build up.
                 sum = y[start..start + WIDTH].iter().sum();
             }
         }
-        let l = y[i] - (sum - y[i]) / (WIDTH - 1) as f64;
-        if l.abs() > limit {
+        // |y_i − (sum − y_i)/14| > limit, multiplied through by 14 (no division per sample).
+        if (WIDTH as f64 * y[i] - sum).abs() > scaled_limit {
             out.push(i);
         }
     }
