@@ -93,12 +93,22 @@ pub fn fit_avar_with(
     let tau: Vec<f64> = keep.iter().map(|&i| d.tau_s[i]).collect();
     let problem = Problem {
         value: keep.iter().map(|&i| d.variance[i]).collect(),
-        basis: tau
+        // With the sensor's filter known, white noise's column carries the share of its Allan
+        // variance the filter leaves at each τ (see `LowPass::white_avar_kept`); the other terms
+        // live at frequencies the filter passes.
+        basis: keep
             .iter()
-            .map(|&t| {
+            .map(|&i| {
+                let t = d.tau_s[i];
                 std::array::from_fn(|j| match (j, effect) {
                     (EFFECT, Some(e)) => e.avar_unit(t, d.rate_hz),
                     (EFFECT, None) => 0.0,
+                    _ if Term::ALL[j] == Term::RandomWalk => {
+                        let kept = opts
+                            .lowpass
+                            .map_or(1.0, |lp| lp.white_avar_kept(d.rate_hz, d.m[i]));
+                        Term::RandomWalk.avar_unit(t) * kept
+                    }
                     _ => Term::ALL[j].avar_unit(t),
                 })
             })
