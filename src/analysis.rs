@@ -12,7 +12,7 @@
 use serde::Serialize;
 
 use crate::avar::{Deviations, Statistic};
-use crate::effects::{close_loop, AuxSeries, LoopConfig, LoopReport, MAX_STEPS};
+use crate::effects::{close_loop_from_base, AuxSeries, LoopConfig, LoopReport, MAX_STEPS};
 use crate::estimate::{ChannelDeviations, ChannelPsd};
 use crate::model::{
     combine, compare, detect_bandwidth, fit_avar, fit_psd, Bandwidth, Combined, FitError,
@@ -87,7 +87,8 @@ pub struct ChannelInput<'a> {
 }
 
 /// Fits one channel and, with `loop_cfg`, closes the loop on it (`aux`: channels that may
-/// explain part of it, such as temperature).
+/// explain part of it, such as temperature). The loop fits with `opts` (`loop_cfg.fit` is not
+/// used) and starts from the base fits made here.
 pub fn analyze_channel(
     input: ChannelInput<'_>,
     aux: &[AuxSeries<'_>],
@@ -100,14 +101,21 @@ pub fn analyze_channel(
     else {
         return a;
     };
-    // The loop fits and searches inside the band the base fits kept.
+    // The loop fits and searches with the base fits' options, inside the band they kept (its
+    // own `fit` options are replaced by `opts`, so that the base fits handed to it are its own).
     let mut cfg = cfg.clone();
-    if let Some(b) = &a.bandwidth {
-        cfg.fit = b.restrict(&cfg.fit);
-    }
+    cfg.fit = match &a.bandwidth {
+        Some(b) => b.restrict(opts),
+        None => opts.clone(),
+    };
     cfg.fit.detect_bandwidth = false;
     let initial = (dev.clone(), input.psd.psd.clone(), binned.clone());
-    if let Some(outcome) = close_loop(input.samples, input.rate_hz, aux, &cfg, Some(initial)) {
+    // The base fits were made above with these options on these estimates: handed over, not
+    // repeated.
+    let base = (a.allan.clone().ok(), a.spectrum.clone().ok());
+    if let Some(outcome) =
+        close_loop_from_base(input.samples, input.rate_hz, aux, &cfg, initial, base)
+    {
         if !outcome.report.steps.is_empty() {
             if let Some(f) = outcome.allan {
                 a.allan = Ok(f);

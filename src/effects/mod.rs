@@ -24,6 +24,6 @@ pub mod slow;
 pub mod time;
 
 pub use closing::{
-    close_loop, AuxSeries, Effect, ErrorFigures, LoopConfig, LoopOutcome, LoopReport, LoopStep,
-    Rejected, MAX_STEPS,
+    close_loop, close_loop_from_base, AuxSeries, BaseFits, Effect, ErrorFigures, LoopConfig,
+    LoopOutcome, LoopReport, LoopStep, Rejected, MAX_STEPS,
 };

@@ -34,10 +34,10 @@
 //! the filter passes. Nothing above the band's edge is searched for effects either.
 //!
 //! **The bias left inside the band.** The Allan points kept still read up to 2 % low for white
-//! noise, all in the same direction, which left the Allan N 0.8–1.8 % low on filtered sensors
-//! (its 1σ interval, ±1–3 %, covering the truth in 40–64 % of 30-min records): the Allan fit
+//! noise, all in the same direction, which left the Allan N 0.9–1.8 % low on filtered sensors
+//! (its 1σ interval, ±1–3 %, covering the truth in 40–60 % of 30-min records): the Allan fit
 //! therefore multiplies N's column by r(m) at each kept τ ([`LowPass::white_avar_kept`]; N within
-//! 0.3–0.9 % and covered in 62–74 % after). The spectrum's band is not corrected the same way:
+//! 0.3–0.8 % and covered in 62–74 % after). The spectrum's band is not corrected the same way:
 //! its edge is checked on the data, and its N was already unbiased (0.9999–1.003); the fitted
 //! filter's gain there made it 0.2–0.6 % high.
 

@@ -565,3 +565,47 @@ fn a_false_short_step_does_not_plant_a_real_one() {
     let o = run(&cols);
     assert!(kinds(&o).is_empty(), "{:?}", o.report.steps);
 }
+
+/// Handing the loop the base fits it would make (same estimates, same options) changes nothing:
+/// the same effects, the same final coefficients, the same rejected candidates; here with a
+/// resonance, so that the base fits feed a search and its refits.
+#[test]
+fn the_loop_from_handed_base_fits_is_the_loop_that_fits_them() {
+    use imunoise::avar::{compute, Statistic};
+    use imunoise::effects::close_loop_from_base;
+    use imunoise::model::{fit_avar_with, fit_psd_with};
+    use imunoise::psd::{log_bin, welch};
+    let (cols, _) = record(
+        json!({ "resonances": [{ "f0_hz": 8.0, "q": 20.0, "sigma": 1.5e-4 }] }),
+        false,
+    );
+    let mut cfg = config();
+    cfg.fit.detect_bandwidth = false;
+    let y = &cols[0];
+    let dev = compute(y, FS, &cfg.taus, Statistic::Oadev, cfg.confidence).unwrap();
+    let psd = welch(y, FS, &cfg.welch).unwrap();
+    let binned = log_bin(&psd, cfg.bins_per_decade);
+    let base = (
+        fit_avar_with(&dev, &cfg.fit, None).ok(),
+        fit_psd_with(&psd, &binned, &cfg.fit, None).ok(),
+    );
+    let initial = (dev, psd, binned);
+    let own = close_loop(y, FS, &[], &cfg, Some(initial.clone())).unwrap();
+    let handed = close_loop_from_base(y, FS, &[], &cfg, initial, base).unwrap();
+    assert_eq!(kinds(&own), kinds(&handed));
+    assert_eq!(kinds(&own), ["resonance"]);
+    for term in Term::ALL {
+        assert_eq!(
+            coef(own.allan.as_ref(), term),
+            coef(handed.allan.as_ref(), term)
+        );
+        assert_eq!(
+            coef(own.spectrum.as_ref(), term),
+            coef(handed.spectrum.as_ref(), term)
+        );
+    }
+    let notes = |o: &LoopOutcome| -> Vec<String> {
+        o.report.rejected.iter().map(|r| r.note.clone()).collect()
+    };
+    assert_eq!(notes(&own), notes(&handed));
+}

@@ -248,10 +248,12 @@ fn fits(
     cfg: &LoopConfig,
     effect: Option<&dyn EffectShape>,
 ) -> (Option<NoiseFit>, Option<NoiseFit>) {
-    (
-        fit_avar_with(dev, &cfg.fit, effect).ok(),
-        fit_psd_with(psd, binned, &cfg.fit, effect).ok(),
-    )
+    // Independent: side by side.
+    let (allan, spectrum) = rayon::join(
+        || fit_avar_with(dev, &cfg.fit, effect).ok(),
+        || fit_psd_with(psd, binned, &cfg.fit, effect).ok(),
+    );
+    (allan, spectrum)
 }
 
 fn figures(allan: Option<&NoiseFit>, spectrum: Option<&NoiseFit>) -> ErrorFigures {
@@ -368,6 +370,35 @@ pub fn close_loop(
     cfg: &LoopConfig,
     initial: Option<(Deviations, Psd, BinnedPsd)>,
 ) -> Option<LoopOutcome> {
+    run_loop(y, fs, aux, cfg, initial, None)
+}
+
+/// The base fits a caller already made: the Allan and spectrum fits of the estimates it hands
+/// to [`close_loop_from_base`], with that loop configuration's fit options.
+pub type BaseFits = (Option<NoiseFit>, Option<NoiseFit>);
+
+/// [`close_loop`] from the caller's estimates and base fits, which must have been made with
+/// `cfg.fit` on exactly those estimates (`cfg.fit.detect_bandwidth` off: the band already
+/// restricted), so that the loop does not fit the same model a second time.
+pub fn close_loop_from_base(
+    y: &[f64],
+    fs: f64,
+    aux: &[AuxSeries<'_>],
+    cfg: &LoopConfig,
+    initial: (Deviations, Psd, BinnedPsd),
+    base: BaseFits,
+) -> Option<LoopOutcome> {
+    run_loop(y, fs, aux, cfg, Some(initial), Some(base))
+}
+
+fn run_loop(
+    y: &[f64],
+    fs: f64,
+    aux: &[AuxSeries<'_>],
+    cfg: &LoopConfig,
+    initial: Option<(Deviations, Psd, BinnedPsd)>,
+    base: Option<BaseFits>,
+) -> Option<LoopOutcome> {
     let (dev, psd, binned) = match initial {
         Some(e) => e,
         None => estimates(y, fs, cfg)?,
@@ -384,7 +415,12 @@ pub fn close_loop(
         cfg.fit = b.restrict(&cfg.fit);
     }
     let cfg = &cfg;
-    let (allan, spectrum) = fits(&dev, &psd, &binned, cfg, None);
+    // The caller's base fits, where it made them on these estimates with these options (no band
+    // detected here: the options are unchanged).
+    let (allan, spectrum) = match base {
+        Some(b) if bandwidth.is_none() => b,
+        _ => fits(&dev, &psd, &binned, cfg, None),
+    };
     let mut state = State {
         y: Cow::Borrowed(y),
         dev,

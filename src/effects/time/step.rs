@@ -32,10 +32,11 @@ use rayon::prelude::*;
 pub const MIN_WINDOWS: usize = 16;
 /// Shortest window, samples.
 const MIN_W: usize = 8;
-/// Differences the Allan variance of a window is estimated from, at most: 2¹⁸, 0.3 % on the
-/// variance (the z of a 5σ step moves by 0.15 %). At 2²⁰ (0.15 %) the strided reads of the
-/// shortest windows touched every cache line of the record, a third of the scan's time.
-const VARIANCE_SAMPLES: usize = 1 << 18;
+/// Differences the Allan variance of a window is estimated from, at most: 2¹⁶, 0.6 % on the
+/// variance (the z of a 5σ step moves by 0.3 %, its tail probability by 8 % of itself). At 2²⁰
+/// (0.15 %) the strided reads, each a cache miss, were a third of the scan's time on 10⁷-sample
+/// records.
+const VARIANCE_SAMPLES: usize = 1 << 16;
 /// Share of the largest D² left out of the Allan-variance estimate.
 const TRIM: f64 = 0.02;
 
@@ -143,7 +144,7 @@ fn scan(s: &[f64], w: usize, d2: &mut Vec<f64>) -> Option<Scan> {
     let at = |k: usize| (s[k + w] - 2.0 * s[k] + s[k - w]) / wf;
     // The Allan variance from every (w/8)-th difference: neighbours w/8 apart are correlated by
     // 0.81, so the thinned trimmed mean is as precise, at an eighth of the selection work; and
-    // from at most VARIANCE_SAMPLES of them (0.3 % on the variance), so that the shortest
+    // from at most VARIANCE_SAMPLES of them (0.6 % on the variance), so that the shortest
     // windows of a long record do not allocate (and the kernel zero) a record-length buffer.
     let stride = (w / 8).max((n - 2 * w) / VARIANCE_SAMPLES).max(1);
     d2.clear();
