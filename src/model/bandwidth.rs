@@ -10,9 +10,10 @@
 //! N added) is refitted with every column but quantisation's (the output is rounded after the
 //! filter) multiplied by a Butterworth-type power gain |H(f)|² = 1/(1 + (f/f_c)^(2n)) (an analog
 //! filter) or its bilinear digital form with tan(πf/fs) for f (a digital low-pass at the output
-//! rate, which reaches zero at Nyquist), over a grid of corners f_c (24 per decade from 8 bands
-//! above the lowest fitted band to 2·fs; below Nyquist for the digital form) and orders
-//! n ∈ {1, 2, 3, 4, 5, 6, 8}, then refined on a finer grid of f_c (96 per decade) at the best n. A
+//! rate, which reaches zero at Nyquist), over a grid of corners f_c (from 8 bands above the lowest
+//! fitted band to 2·fs; below Nyquist for the digital form) and orders n ∈ {1, 2, 3, 4, 5, 6, 8}:
+//! 8 corners per decade for every order and form, then 24 per decade within one coarse step of the
+//! best, then 96 per decade at the best order and form. A
 //! roll-off is reported when the best filtered model beats the unfiltered one by ΔBIC < −25
 //! (two more parameters; far beyond "very strong" on the Kass–Raftery scale) and attenuates the
 //! top fitted band by at least 1 dB. Both guards were set on a broad resonance (Q = 20 at 8 Hz,
