@@ -80,6 +80,10 @@ fn narrow_excess(p: &Problem, i: usize) -> bool {
 const ORDERS: [u32; 7] = [1, 2, 3, 4, 5, 6, 8];
 /// Corners per decade of the first, coarse scan (see [`detect_bandwidth`]).
 const COARSE_PER_DECADE: f64 = 8.0;
+/// Factor beyond which [`LowPass::white_avar_kept`] extrapolates the bias as 1/m instead of
+/// integrating (the integral's cost grows with m; the bias of a low-pass whose corner is well
+/// inside the band falls as 1/m once m/fs is many filter time constants).
+const WHITE_BIAS_EXACT_M: u64 = 4096;
 
 /// The frequency axis of a [`LowPass`] response.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -160,20 +164,12 @@ impl LowPass {
             .sum();
         (4.0 * mf / rate_hz * sum * step).clamp(0.0, 1.0)
     }
-}
 
-/// Factor beyond which [`LowPass::white_avar_kept`] extrapolates the bias as 1/m instead of
-/// integrating (the integral's cost grows with m; the bias of a low-pass whose corner is well
-/// inside the band falls as 1/m once m/fs is many filter time constants).
-const WHITE_BIAS_EXACT_M: u64 = 4096;
-
-impl LowPass {
     /// 1 − [`LowPass::white_avar_bias`]: the share of white noise's Allan variance at τ = m/fs
     /// that the filter leaves, which the Allan fit multiplies N's column by (the points it keeps
-    /// read up to [`BAND_BIAS`] low, all the same way, which left the Allan N 1–2 % low on filtered
-    /// sensors with intervals of a few tenths of a per cent). Memoised: the fits of the residual
-    /// loop ask for the same few factors hundreds of times. Beyond [`WHITE_BIAS_EXACT_M`] the bias
-    /// is the one there times WHITE_BIAS_EXACT_M/m.
+    /// read up to [`BAND_BIAS`] low, all the same way; see the module doc). Memoised: the fits of
+    /// the residual loop ask for the same few factors hundreds of times. Beyond
+    /// [`WHITE_BIAS_EXACT_M`] the bias is the one there times WHITE_BIAS_EXACT_M/m.
     pub fn white_avar_kept(&self, rate_hz: f64, m: u64) -> f64 {
         use std::collections::HashMap;
         use std::sync::{Mutex, OnceLock};

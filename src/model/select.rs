@@ -99,7 +99,7 @@ pub(crate) fn select_and_fit(
     let fits = rank_subsets(screen, allowed, forced, opts);
     let best = fits
         .iter()
-        .position(|(c, _)| c.proper && c.score.is_finite())
+        .position(|(c, _)| eligible(c))
         .ok_or(FitError::NoSignal)?;
     let mut mask = prefer_random_walk(fits[best].1, allowed, &fits);
     // Refit on the problem itself; should that clamp a term (a screening/final difference near
@@ -230,7 +230,6 @@ struct Rival {
 /// The proper subsets (with the `forced` columns) other than `chosen` that scored within
 /// [`SELECTION_WINDOW`] of the best, refitted on `problem`.
 fn rivals(problem: &Problem, fits: &[(Candidate, Mask)], chosen: Mask, forced: Mask) -> Vec<Rival> {
-    let eligible = |c: &Candidate| c.proper && c.score.is_finite();
     let Some(best) = fits.iter().find(|(c, _)| eligible(c)).map(|(c, _)| c.score) else {
         return Vec::new();
     };
@@ -298,38 +297,29 @@ fn unconditional_variance(mean: f64, chosen: f64, var: f64, j: usize, rivals: &[
 }
 
 /// The chosen `mask`, with a rate ramp the data cannot tell from a rate random walk replaced by
-/// the random walk: where the subset with K in R's place scores within [`AMBIGUITY_BIC`] of the
-/// best, K is kept instead.
+/// the random walk: where R is [`ambiguous_with`] K (the subset with K in R's place scores within
+/// [`AMBIGUITY_BIC`] of the best), K is kept instead.
 ///
-/// Why: over a record a few correlation-free times long, one realisation of a rate random walk
-/// wanders off in one direction and its longest-τ Allan points rise like a ramp's; the ramp is
-/// the deterministic reading of what the random walk produces by chance, and a fit that cannot
-/// tell them apart has not determined a ramp. Measured on 50 clean 30-min records (N, B, K, no
-/// ramp): the Allan fit chose a ramp in 12, 9 of them with K's swap within 6 BIC. The rivals
-/// with R still enter the averaged estimates and their spread, and K carries the ambiguity flag.
+/// Why: over a record only a few times longer than the longest τ fitted, one realisation of a
+/// rate random walk wanders off in one direction and its longest-τ Allan points rise like a
+/// ramp's; the ramp is the deterministic reading of what the random walk produces by chance, and
+/// a fit that cannot tell them apart has not determined a ramp. Measured on 50 clean 30-min
+/// records (N, B, K, no ramp): the Allan fit chose a ramp in 12, 9 of them with K's swap within 6
+/// BIC. The rivals with R still enter the averaged estimates and their spread, and K carries the
+/// ambiguity flag.
 fn prefer_random_walk(mask: Mask, allowed: Mask, fits: &[(Candidate, Mask)]) -> Mask {
-    let (k, r) = (
-        1 << Term::RateRandomWalk as usize,
-        1 << Term::RateRamp as usize,
-    );
-    if mask & r == 0 || mask & k != 0 || allowed & k == 0 {
-        return mask;
-    }
-    let eligible = |c: &Candidate| c.proper && c.score.is_finite();
-    let best = fits
-        .iter()
-        .filter(|(c, _)| eligible(c))
-        .map(|(c, _)| c.score)
-        .fold(f64::INFINITY, f64::min);
-    let swapped = (mask & !r) | k;
-    let close = fits
-        .iter()
-        .any(|(c, m)| *m == swapped && eligible(c) && c.score - best < AMBIGUITY_BIC);
-    if close {
-        swapped
+    let (k, r) = (Term::RateRandomWalk.index(), Term::RateRamp.index());
+    if mask & (1 << r) != 0 && ambiguous_with(r, mask, allowed, fits) == Some(Term::RateRandomWalk)
+    {
+        (mask & !(1 << r)) | (1 << k)
     } else {
         mask
     }
+}
+
+/// Whether a ranked subset can be chosen: its fit kept every term positive and it has a score.
+fn eligible(c: &Candidate) -> bool {
+    c.proper && c.score.is_finite()
 }
 
 /// BIC difference within which a model with a neighbour in a term's place is as good: "positive"
@@ -341,7 +331,7 @@ pub const AMBIGUITY_BIC: f64 = 6.0;
 fn ambiguous_with(j: usize, mask: Mask, allowed: Mask, fits: &[(Candidate, Mask)]) -> Option<Term> {
     let best = fits
         .iter()
-        .filter(|(c, _)| c.proper && c.score.is_finite())
+        .filter(|(c, _)| eligible(c))
         .map(|(c, _)| c.score)
         .fold(f64::INFINITY, f64::min);
     [j.checked_sub(1), Some(j + 1)]
@@ -350,9 +340,8 @@ fn ambiguous_with(j: usize, mask: Mask, allowed: Mask, fits: &[(Candidate, Mask)
         .filter(|&u| u < BASE && mask & (1 << u) == 0 && allowed & (1 << u) != 0)
         .find(|&u| {
             let swapped = (mask & !(1 << j)) | (1 << u);
-            fits.iter().any(|(c, m)| {
-                *m == swapped && c.proper && c.score.is_finite() && c.score - best < AMBIGUITY_BIC
-            })
+            fits.iter()
+                .any(|(c, m)| *m == swapped && eligible(c) && c.score - best < AMBIGUITY_BIC)
         })
         .map(|u| Term::ALL[u])
 }

@@ -249,11 +249,10 @@ fn fits(
     effect: Option<&dyn EffectShape>,
 ) -> (Option<NoiseFit>, Option<NoiseFit>) {
     // Independent: side by side.
-    let (allan, spectrum) = rayon::join(
+    rayon::join(
         || fit_avar_with(dev, &cfg.fit, effect).ok(),
         || fit_psd_with(psd, binned, &cfg.fit, effect).ok(),
-    );
-    (allan, spectrum)
+    )
 }
 
 fn figures(allan: Option<&NoiseFit>, spectrum: Option<&NoiseFit>) -> ErrorFigures {
