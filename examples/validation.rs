@@ -441,7 +441,8 @@ fn main() {
                 Confidence::OneSigma,
             )
             .ok();
-            let c = combine(o.allan.as_ref(), o.spectrum.as_ref(), dev.as_ref());
+            let mut c = combine(o.allan.as_ref(), o.spectrum.as_ref(), dev.as_ref());
+            c.warnings.extend(o.report.warnings());
             if verbose {
                 for w in &c.warnings {
                     eprintln!("  warning {}", w.describe());
@@ -458,6 +459,7 @@ fn main() {
                         format!("{} vs read-off", term.symbol())
                     }
                     FitWarning::LoopLimitReached { .. } => "loop limit".to_string(),
+                    FitWarning::RivalModel { effect, .. } => format!("rival {effect}"),
                 });
             }
             if let Some(path) = &dump {

@@ -12,11 +12,11 @@
 use serde::Serialize;
 
 use crate::avar::{Deviations, Statistic};
-use crate::effects::{close_loop_from_base, AuxSeries, LoopConfig, LoopReport, MAX_STEPS};
+use crate::effects::{close_loop_from_base, AuxSeries, LoopConfig, LoopReport};
 use crate::estimate::{ChannelDeviations, ChannelPsd};
 use crate::model::{
     combine, compare, detect_bandwidth, fit_avar, fit_psd, Bandwidth, Combined, FitError,
-    FitOptions, FitWarning, NoiseFit, Sensor, TermComparison,
+    FitOptions, NoiseFit, Sensor, TermComparison,
 };
 
 /// One channel's fits.
@@ -116,7 +116,7 @@ pub fn analyze_channel(
     if let Some(outcome) =
         close_loop_from_base(input.samples, input.rate_hz, aux, &cfg, initial, base)
     {
-        if !outcome.report.steps.is_empty() {
+        if !outcome.report.steps.is_empty() || outcome.report.rival.is_some() {
             if let Some(f) = outcome.allan {
                 a.allan = Ok(f);
             }
@@ -127,11 +127,7 @@ pub fn analyze_channel(
             let final_dev = outcome.report.corrected.as_ref().map_or(dev, |(d, _)| d);
             a.combined = combine(a.allan_fit(), a.spectrum_fit(), Some(final_dev));
         }
-        if outcome.report.steps.len() >= MAX_STEPS {
-            a.combined
-                .warnings
-                .push(FitWarning::LoopLimitReached { limit: MAX_STEPS });
-        }
+        a.combined.warnings.extend(outcome.report.warnings());
         a.residual_loop = Some(outcome.report);
     }
     a

@@ -25,5 +25,5 @@ pub mod time;
 
 pub use closing::{
     close_loop, close_loop_from_base, AuxSeries, BaseFits, Effect, ErrorFigures, LoopConfig,
-    LoopOutcome, LoopReport, LoopStep, Rejected, MAX_STEPS,
+    LoopOutcome, LoopReport, LoopStep, Rejected, Rival, MAX_STEPS, RIVAL_WARNING_SHARE,
 };

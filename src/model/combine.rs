@@ -102,6 +102,17 @@ pub enum FitWarning {
     /// The residual loop added as many effects as it may (`limit`) and stopped there: effects
     /// beyond those were not looked for, so the model may still lack some.
     LoopLimitReached { limit: usize },
+    /// A model with one more effect (`effect`, described by `evidence`) that the loop did not
+    /// admit explains the data nearly as well (`delta_bic` behind the final model, or ahead of it
+    /// by less than the loop asks): the coefficients and their intervals are both models'
+    /// averaged, the rival with `weight` against the final model's 1 (named from
+    /// [`crate::effects::RIVAL_WARNING_SHARE`] of the total on).
+    RivalModel {
+        effect: String,
+        delta_bic: f64,
+        weight: f64,
+        evidence: String,
+    },
 }
 
 impl FitWarning {
@@ -147,6 +158,21 @@ impl FitWarning {
             FitWarning::LoopLimitReached { limit } => format!(
                 "the residual loop stopped at its limit of {limit} effects: further effects were \
                  not looked for, and the model may still lack some"
+            ),
+            FitWarning::RivalModel {
+                effect,
+                delta_bic,
+                weight,
+                evidence,
+            } => format!(
+                "a model with a {} explains the data nearly as well (ΔBIC {delta_bic:+.1}, not \
+                 below the −6 an effect needs; {evidence}): the coefficients and their intervals \
+                 are those of both models averaged, this one weighing {:.0} % of the total",
+                match effect.as_str() {
+                    "gauss_markov" => "Gauss–Markov process",
+                    other => other,
+                },
+                100.0 * weight / (1.0 + weight)
             ),
         }
     }

@@ -57,6 +57,7 @@
 
 mod alias;
 mod avar_fit;
+mod average;
 mod band_correlation;
 mod bandwidth;
 mod combine;
@@ -76,6 +77,7 @@ mod terms;
 mod units;
 
 pub use avar_fit::{fit_avar, fit_avar_with};
+pub use average::average_with_rival;
 pub use bandwidth::{detect_bandwidth, Bandwidth, FilterForm, LowPass, BAND_BIAS};
 pub use combine::{combine, read_offs, Combined, CombinedTerm, FitWarning, ReadOff};
 pub use compare::{compare, TermComparison};
@@ -87,6 +89,6 @@ pub use result::{
     Candidate, Criterion, Domain, EffectEstimate, FitPoint, LackOfFit, NoiseFit, TermEstimate,
     UpperLimit,
 };
-pub use select::{AMBIGUITY_BIC, LACK_OF_FIT_P};
+pub use select::{AMBIGUITY_BIC, LACK_OF_FIT_P, SELECTION_WINDOW};
 pub use terms::{Coefficients, GaussMarkov, Sinusoid, Term, FLICKER_PLATEAU};
 pub use units::{CoefUnit, Sensor, UnitError};
