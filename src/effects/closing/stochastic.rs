@@ -382,6 +382,19 @@ pub(super) fn gauss_markov_candidate(
     {
         (sigma.lo, sigma.hi) = (sigma.lo.min(e.lo), sigma.hi.max(e.hi));
     }
+    // The base terms trade with the process too (a longer Tc takes more of K's low-frequency
+    // power): each one's interval, in each fit, joins its conditional intervals over the same
+    // profile interval of Tc, as σ's does.
+    let (mut allan, mut spectrum) = (best.allan.clone(), best.spectrum.clone());
+    for c in profile
+        .iter()
+        .filter(|c| c.delta <= restricted_best.delta + q)
+    {
+        join_intervals(&mut allan, Some(&c.allan));
+        if let Some(f) = spectrum.as_mut() {
+            join_intervals(f, c.spectrum.as_ref());
+        }
+    }
     let where_ = state
         .spectrum
         .as_ref()
@@ -399,12 +412,21 @@ pub(super) fn gauss_markov_candidate(
             if best.visible { "" } else { ", below the spectrum's lowest band: the Allan fit decides" }
         ),
         effect: Effect::GaussMarkov { tc_s: tc, sigma },
-        apply: Apply::Model(Box::new((
-            Stochastic::GaussMarkov(shape),
-            Some(best.allan.clone()),
-            best.spectrum.clone(),
-        ))),
+        apply: Apply::Model(Box::new((Stochastic::GaussMarkov(shape), Some(allan), spectrum))),
     })
+}
+
+/// Each of `fit`'s term intervals widened to take in `other`'s interval of the same term (a term
+/// `other` lacks leaves it as it is).
+fn join_intervals(fit: &mut NoiseFit, other: Option<&NoiseFit>) {
+    let Some(other) = other else {
+        return;
+    };
+    for e in &mut fit.estimates {
+        if let Some(o) = other.get(e.term) {
+            (e.lo, e.hi) = (e.lo.min(o.lo), e.hi.max(o.hi));
+        }
+    }
 }
 
 #[cfg(test)]
