@@ -132,6 +132,14 @@ fn main() {
             rate: None,
         },
         Case {
+            name: "N and B only (no K), 60-min records",
+            filtered: false,
+            extra: json!({ "noise": { "k": 0.0 } }),
+            expect: None,
+            seconds: Some(3600.0),
+            rate: None,
+        },
+        Case {
             name: "clean, 6-h records",
             filtered: false,
             extra: json!({}),
@@ -289,6 +297,12 @@ fn main() {
         .filter(|c| only.is_empty() || only.iter().any(|o| c.name.contains(o.as_str())))
     {
         let mut tally = Tally::default();
+        // The case's own truth: a term its "noise" sets to 0 is absent (the K-less case).
+        let truths = truths.map(|(term, v)| {
+            let key = term.symbol().to_lowercase();
+            let own = case.extra["noise"][key.as_str()].as_f64();
+            (term, own.unwrap_or(v))
+        });
         for s in 0..seeds {
             let mut ch = json!({ "name": "g", "sensor": "gyro", "noise": t });
             let mut temperature = None;
@@ -499,7 +513,13 @@ fn main() {
             for (i, (term, truth)) in truths.iter().enumerate() {
                 if let Some(e) = c.get(*term) {
                     tally.kept[i] += 1;
-                    tally.ratio[i].push(e.value / truth);
+                    if *truth > 0.0 {
+                        tally.ratio[i].push(e.value / truth);
+                    } else {
+                        // None planted: the value against the other cases' K, and whether the
+                        // interval reaches 0.
+                        tally.ratio[i].push(e.value / t.k);
+                    }
                     tally.covered[i] += usize::from(e.lo <= *truth && *truth <= e.hi);
                 }
             }
@@ -508,8 +528,29 @@ fn main() {
         let pct = |k: usize, of: usize| format!("{:.0} %", 100.0 * k as f64 / of.max(1) as f64);
         let effects: Vec<String> = tally.effects.iter().map(|k| k.to_string()).collect();
         let [mut rn, mut rb, mut rk] = tally.ratio;
+        let k_absent = truths[2].1 <= 0.0;
+        if k_absent {
+            edge_notes.push(format!(
+                "{}: K (none planted) kept in the combined result of {} of {} records, median value {:.3}× the other cases' K of 20 °/h/√h, its 1σ interval reaching 0 in {} of them.",
+                case.name,
+                tally.kept[2],
+                tally.runs,
+                median(&mut rk.clone()),
+                tally.covered[2]
+            ));
+        }
+        let k_ratio = if k_absent {
+            "– (none planted)".to_string()
+        } else {
+            format!("{:.3}", median(&mut rk))
+        };
+        let k_coverage = if k_absent {
+            "–".to_string()
+        } else {
+            pct(tally.covered[2], tally.kept[2])
+        };
         println!(
-            "| {} | {} | {} | {}{} | {}{} | {:.3} | {} | {:.3} | {} | {} | {:.3} | {} | {} |",
+            "| {} | {} | {} | {}{} | {}{} | {:.3} | {} | {:.3} | {} | {} | {} | {} | {} |",
             case.name,
             if case.filtered {
                 pct(tally.detected, tally.runs)
@@ -534,8 +575,8 @@ fn main() {
             median(&mut rb),
             pct(tally.covered[1], tally.kept[1]),
             pct(tally.kept[1], tally.runs),
-            median(&mut rk),
-            pct(tally.covered[2], tally.kept[2]),
+            k_ratio,
+            k_coverage,
             pct(tally.kept[2], tally.runs),
         );
         let _ = runs;
