@@ -116,47 +116,26 @@ fn mixture_quantile(components: &[(f64, f64, f64); 2], p: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{Criterion, Domain, LackOfFit, TermEstimate};
+    use crate::model::result::fit_for_tests;
+    use crate::model::{Domain, TermEstimate};
 
     fn fit_of(terms: &[(Term, f64, f64)]) -> NoiseFit {
-        NoiseFit {
-            domain: Domain::Allan,
-            estimates: terms
-                .iter()
-                .map(|&(term, value, edf)| {
-                    let (lo, hi, _) = coefficient_interval(
-                        value * value,
-                        2.0 * value.powi(4) / edf,
-                        crate::avar::ONE_SIGMA,
-                    );
-                    TermEstimate {
-                        term,
-                        value,
-                        lo,
-                        hi,
-                        edf,
-                        ambiguous_with: None,
-                    }
-                })
-                .collect(),
-            upper_limits: Vec::new(),
-            chi2: 10.0,
-            dof: 10,
-            lack_of_fit: LackOfFit {
-                chi2_per_dof: 1.0,
-                p_value: 0.5,
-                inflation: 1.0,
-                significant: false,
-                worst_from: 1.0,
-                worst_to: 1.0,
-                worst_share: 0.1,
-            },
-            effect: None,
-            criterion: Criterion::Bic,
-            confidence: crate::avar::ONE_SIGMA,
-            candidates: Vec::new(),
-            points: Vec::new(),
-        }
+        let estimates = terms
+            .iter()
+            .map(|&(term, value, edf)| {
+                let var = 2.0 * value.powi(4) / edf;
+                let (lo, hi, _) = coefficient_interval(value * value, var, crate::avar::ONE_SIGMA);
+                TermEstimate {
+                    term,
+                    value,
+                    lo,
+                    hi,
+                    edf,
+                    ambiguous_with: None,
+                }
+            })
+            .collect();
+        fit_for_tests(Domain::Allan, estimates, Vec::new())
     }
 
     /// A rival far behind changes nothing that prints; an even one puts the value at the root of

@@ -540,7 +540,6 @@ fn allan_bound(dev: &Deviations, term: Term) -> Option<(f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{Criterion, LackOfFit, UpperLimit};
 
     fn est(term: Term, value: f64, rel: f64) -> TermEstimate {
         TermEstimate {
@@ -592,30 +591,7 @@ mod tests {
     }
 
     fn fit(domain: Domain, estimates: Vec<TermEstimate>, upper: Vec<(Term, f64)>) -> NoiseFit {
-        NoiseFit {
-            domain,
-            estimates,
-            upper_limits: upper
-                .into_iter()
-                .map(|(term, upper)| UpperLimit { term, upper })
-                .collect(),
-            chi2: 10.0,
-            dof: 10,
-            lack_of_fit: LackOfFit {
-                chi2_per_dof: 1.0,
-                p_value: 0.5,
-                inflation: 1.0,
-                significant: false,
-                worst_from: 1.0,
-                worst_to: 1.0,
-                worst_share: 0.1,
-            },
-            effect: None,
-            criterion: Criterion::Bic,
-            confidence: crate::avar::ONE_SIGMA,
-            candidates: Vec::new(),
-            points: Vec::new(),
-        }
+        crate::model::result::fit_for_tests(domain, estimates, upper)
     }
 
     #[test]

@@ -198,3 +198,37 @@ impl std::str::FromStr for Criterion {
         }
     }
 }
+
+/// A fit with the given estimates and upper limits and a model that fits (χ²/dof 1), for the unit
+/// tests of what is built on fits (combination, averaging).
+#[cfg(test)]
+pub(crate) fn fit_for_tests(
+    domain: Domain,
+    estimates: Vec<TermEstimate>,
+    upper: Vec<(Term, f64)>,
+) -> NoiseFit {
+    NoiseFit {
+        domain,
+        estimates,
+        upper_limits: upper
+            .into_iter()
+            .map(|(term, upper)| UpperLimit { term, upper })
+            .collect(),
+        chi2: 10.0,
+        dof: 10,
+        lack_of_fit: LackOfFit {
+            chi2_per_dof: 1.0,
+            p_value: 0.5,
+            inflation: 1.0,
+            significant: false,
+            worst_from: 1.0,
+            worst_to: 1.0,
+            worst_share: 0.1,
+        },
+        effect: None,
+        criterion: Criterion::Bic,
+        confidence: crate::avar::ONE_SIGMA,
+        candidates: Vec::new(),
+        points: Vec::new(),
+    }
+}
