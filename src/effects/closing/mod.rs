@@ -201,10 +201,9 @@ impl Rival {
 }
 
 /// A [`Rival`] is named in a warning from this share of the weight on (ΔBIC below 4.4); below it
-/// the averaging moves the coefficients by a few percent of their intervals and is recorded in
-/// the loop's report only. On 50 clean 30-min records the Gauss–Markov rival came within the
-/// averaging window in 29 and reached this share in 4; with a Gauss–Markov process of Tc 60 s
-/// planted and not admitted, in 38 of 44.
+/// it still enters the average but is recorded in the loop's report only. On 50 clean 30-min records the Gauss–Markov rival came within the
+/// averaging window in 29 and reached this share in 5; with a Gauss–Markov process of Tc 60 s
+/// planted, in 39 of the 44 records that did not admit it.
 pub const RIVAL_WARNING_SHARE: f64 = 0.1;
 
 /// The loop's account of one channel.
