@@ -21,9 +21,10 @@ use crate::stats::{chi2_sf, norm_sf};
 /// coefficient with weights 1 and e^(−delta/2) (a term the rival lacks counts 0 there). Its
 /// interval holds the central share of the two models' mixture: in each model the true squared
 /// coefficient C given the estimate c is distributed as ν·c/χ²_ν (its Satterthwaite form, the
-/// inversion every interval here uses), a term a model lacks as a point at 0. Moment matching one χ² to the mixture, tried first, gave intervals that
-/// missed both readings when they differ by several times (two seeds with the rival at 70–75 %:
-/// K 0.5× the base reading, its interval reaching only 0.33× while the rival put K near 0). The
+/// inversion every interval here uses), a term a model lacks as a point at 0. Moment matching
+/// one χ² to the mixture, tried first, gave intervals that missed both readings when they differ
+/// by several times (two seeds with the rival at 70–75 %: K 0.5× the base reading, its interval
+/// reaching only 0.33× while the rival put K near 0). The
 /// reported ν is the moment-matched one: 2·mean²/Var, Var the weighted mean of the models'
 /// variances plus the weighted spread of their estimates (Buckland, Burnham & Augustine 1997).
 /// Terms the rival kept and `fit` did not stay out (as the subsets' averaging leaves them).

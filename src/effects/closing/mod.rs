@@ -20,7 +20,10 @@
 //!   Allan domain votes. One stochastic effect at most: the fitting engine has one effect column.
 //!
 //! The loop stops when no candidate improves the criterion by that much, or after [`MAX_STEPS`]
-//! additions.
+//! additions. A stochastic effect of the last round that was not admitted but scored within
+//! [`SELECTION_WINDOW`] of the final model is its [`Rival`]: the final coefficients are averaged
+//! over both models by BIC weight (an effect that is there but short of strong evidence otherwise
+//! left the IEEE terms that absorb its power with intervals as if it were known to be absent).
 //! Every step records the error before and after (χ²/dof and RMS log residual in both domains).
 
 use std::borrow::Cow;
@@ -201,9 +204,10 @@ impl Rival {
 }
 
 /// A [`Rival`] is named in a warning from this share of the weight on (ΔBIC below 4.4); below it
-/// it still enters the average but is recorded in the loop's report only. On 50 clean 30-min records the Gauss–Markov rival came within the
-/// averaging window in 29 and reached this share in 5; with a Gauss–Markov process of Tc 60 s
-/// planted, in 39 of the 44 records that did not admit it.
+/// it still enters the average but is recorded in the loop's report only. On 50 clean 30-min
+/// records the Gauss–Markov rival came within the averaging window in 29 and reached this share
+/// in 5; with a Gauss–Markov process of Tc 60 s planted, in 39 of the 44 records that did not
+/// admit it.
 pub const RIVAL_WARNING_SHARE: f64 = 0.1;
 
 /// The loop's account of one channel.
