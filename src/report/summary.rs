@@ -524,17 +524,26 @@ fn loop_section(out: &mut String, recording: &Recording, analysis: &[ChannelAnal
     let _ = writeln!(out, "\n### Residual loop: effects the IEEE model lacks\n");
     for a in analysis {
         let Some(l) = &a.residual_loop else { continue };
+        let units = EffectUnits::of(recording, &a.channel);
+        // A rival the coefficients were averaged with (see `effects::Rival`), at any weight.
+        let rival = l.rival.as_ref().map_or(String::new(), |r| {
+            format!(
+                " Not admitted, averaged into the coefficients as a rival at {:.0} % of the weight: {} (ΔBIC {:+.1}).",
+                100.0 * r.share(),
+                effect_line(&r.effect, &units),
+                r.delta_bic
+            )
+        });
         if l.steps.is_empty() {
             let _ = writeln!(
                 out,
-                "- **{}**: nothing added ({}).",
+                "- **{}**: nothing added ({}).{rival}",
                 a.channel,
                 errors(&l.final_figures)
             );
             continue;
         }
-        let _ = writeln!(out, "- **{}**:", a.channel);
-        let units = EffectUnits::of(recording, &a.channel);
+        let _ = writeln!(out, "- **{}**:{rival}", a.channel);
         for (i, s) in l.steps.iter().enumerate() {
             let _ = writeln!(
                 out,

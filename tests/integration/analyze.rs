@@ -339,3 +339,53 @@ fn a_loop_that_reaches_its_limit_says_so() {
     let summary = std::fs::read_to_string(dir.path().join("out/summary.md")).unwrap();
     assert!(summary.contains("limit of 8 effects"), "{summary}");
 }
+
+/// A Gauss–Markov process too long for the loop to admit (Tc 60 s in 30 min) leaves a rival that
+/// the coefficients are averaged with: named in report.json (`residual_loop.rival` and a
+/// `rival_model` warning), in summary.md (the warning and the loop's line) and on stderr. The
+/// same seed as `residual_loop::a_gauss_markov_process_too_long_to_admit_is_averaged_in_as_a_rival`
+/// (measured: ΔBIC −2.9, 81 % of the weight).
+#[test]
+fn a_rival_model_is_reported_everywhere() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = serde_json::json!({
+        "rate_hz": 100.0, "duration_s": 1800.0, "seed": 5,
+        "channels": [{ "name": "gyro_x", "sensor": "gyro",
+            "noise": { "n": 4.3633e-5, "b": 1.4544e-5, "k": 1.616e-6 },
+            "gauss_markov": [{ "sigma": 1e-4, "tc_s": 60.0 }] }]
+    });
+    std::fs::write(dir.path().join("spec.json"), spec.to_string()).unwrap();
+    run_ok(
+        &["simulate", "--spec", "spec.json", "-o", "gm.arrow"],
+        dir.path(),
+    );
+    let out = run_ok(
+        &["analyze", "gm.arrow", "-o", "out", "--backend", "cpu"],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/report.json")).unwrap())
+            .unwrap();
+    crate::schema::matches_schema(&report).unwrap();
+    let channel = &report["files"][0]["analysis"][0];
+    let rival = &channel["residual_loop"]["rival"];
+    assert_eq!(rival["effect"]["kind"], "gauss_markov", "{rival}");
+    let weight = rival["weight"].as_f64().unwrap();
+    assert!(weight / (1.0 + weight) >= 0.1, "{rival}");
+    let warnings = channel["combined"]["warnings"].as_array().unwrap();
+    assert!(
+        warnings.iter().any(|w| w["kind"] == "rival_model"),
+        "{warnings:?}"
+    );
+    assert!(
+        stderr.contains("Gauss–Markov process explains the data nearly as well"),
+        "{stderr}"
+    );
+    let summary = std::fs::read_to_string(dir.path().join("out/summary.md")).unwrap();
+    assert!(
+        summary.contains("averaged into the coefficients as a rival"),
+        "{summary}"
+    );
+    assert!(summary.contains("nearly as well"), "{summary}");
+}

@@ -83,6 +83,15 @@ fn check(root: &Value, schema: &Value, v: &Value, path: &str) -> Result<(), Stri
     Ok(())
 }
 
+/// `doc` against the committed output schema (`schema/imunoise-output.schema.json`).
+pub fn matches_schema(doc: &Value) -> Result<(), String> {
+    let schema: Value = serde_json::from_str(
+        &std::fs::read_to_string(repo_root().join("schema/imunoise-output.schema.json")).unwrap(),
+    )
+    .unwrap();
+    check(&schema, &schema, doc, "report")
+}
+
 #[test]
 fn every_command_writes_documents_that_match_the_schema() {
     let root = repo_root();
