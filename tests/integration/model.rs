@@ -567,3 +567,32 @@ fn bad_inputs_are_errors() {
         Err(FitError::TooFewPoints { .. })
     ));
 }
+
+/// Defect: an effect column forced into a fit that does not see it (a Gauss–Markov knee below the
+/// band of a white spectrum) made every subset with N improper (the effect at 0 counted as a term
+/// zeroed), so the fit fell back to Q and the effect standing in for white noise: χ²/dof ≈ 400 on
+/// the sample's accelerometers, a ΔBIC of +18 000 in the loop's account. Now the effect may come
+/// out 0: the fit is the white noise's, N within 2 % (its 1σ error here ≈ 0.3 %).
+#[test]
+fn an_effect_a_spectrum_does_not_see_comes_out_zero_beside_the_base_terms() {
+    use imunoise::effects::shapes::GaussMarkov1;
+    use imunoise::model::fit_psd_with;
+    let fs = 100.0;
+    let truth = Coefficients {
+        n: 1e-3,
+        ..Default::default()
+    };
+    let y = record(truth, fs, 60_000, 808);
+    let psd = welch(&y, fs, &WelchConfig::new(4096)).unwrap();
+    let binned = log_bin(&psd, 20);
+    let opts = FitOptions::default();
+    let fit = fit_psd_with(&psd, &binned, &opts, Some(&GaussMarkov1 { tc_s: 30.0 })).unwrap();
+    let n = fit.get(Term::RandomWalk).expect("N kept");
+    assert!((n.value / 1e-3 - 1.0).abs() < 0.02, "{n:?}");
+    assert!(
+        fit.effect.is_none_or(|e| e.value < 0.1 * 1e-3),
+        "{:?}",
+        fit.effect
+    );
+    assert!(fit.chi2_per_dof() < 2.0, "χ²/dof {}", fit.chi2_per_dof());
+}

@@ -565,9 +565,15 @@ fn run_loop(
             return None;
         };
         let (_, allan, spectrum) = *model;
+        // A domain whose fit with the effect scores far worse than without it (a knee below the
+        // spectrum's band, where the spectrum does not vote, and a spectrum fit with the effect
+        // that failed: +18 000 on two accelerometers of the sample) holds no reading worth
+        // averaging: that domain keeps its own.
         let average = |fit: &mut Option<NoiseFit>, other: Option<NoiseFit>| {
             if let (Some(f), Some(o)) = (fit.as_mut(), other) {
-                *f = average_with_rival(f, &o, c.delta_bic);
+                if score(&o) - score(f) < SELECTION_WINDOW {
+                    *f = average_with_rival(f, &o, c.delta_bic);
+                }
             }
         };
         average(&mut state.allan, allan);
