@@ -453,7 +453,8 @@ impl LogTable {
 /// grid (2048 points per decade, linear in log f: below 5e-6 relative for power laws as steep as
 /// f⁻⁵; a resonance of Q = 50 spans 16 points of its half-power width, 4e-4 on the covariance)
 /// instead of being evaluated, with two sines, at each of the ~2·256·4096 alias points (a tenth
-/// of the loop's time on 10⁷-sample records). [`tests::folding_matches_the_direct_alias_sum`] checks it against that direct sum.
+/// of the loop's time on 10⁷-sample records). The test `folding_matches_the_direct_alias_sum`
+/// checks it against that direct sum.
 pub fn increment_autocovariance(
     density: &dyn Fn(f64) -> f64,
     fs: f64,

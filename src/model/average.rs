@@ -16,9 +16,10 @@ use super::interval::coefficient_interval;
 use super::{NoiseFit, Term};
 use crate::stats::{chi2_sf, norm_sf};
 
-/// `fit`'s estimates averaged with `rival`'s, where the rival scored `delta` BIC units behind
-/// `fit` (negative: ahead of it, yet not admitted). Each term of `fit` is averaged on the squared
-/// coefficient with weights 1 and e^(−delta/2) (a term the rival lacks counts 0 there). Its
+/// `fit`'s estimates averaged with `rival`'s, the rival weighing `weight` against `fit`'s 1 (its
+/// [`super::bic_weight`]: e^(−ΔBIC/2) for a rival ΔBIC behind, above 1 for one ahead yet not
+/// admitted). Each term of `fit` is averaged on the squared coefficient with those weights (a
+/// term the rival lacks counts 0 there). Its
 /// interval holds the central share of the two models' mixture: in each model the true squared
 /// coefficient C given the estimate c is distributed as ν·c/χ²_ν (its Satterthwaite form, the
 /// inversion every interval here uses), a term a model lacks as a point at 0. Moment matching
@@ -30,8 +31,7 @@ use crate::stats::{chi2_sf, norm_sf};
 /// Terms the rival kept and `fit` did not stay out (as the subsets' averaging leaves them).
 /// Everything else — the model curve, residuals, candidates, misfit figures — is `fit`'s: it is
 /// the model the report draws.
-pub fn average_with_rival(fit: &NoiseFit, rival: &NoiseFit, delta: f64) -> NoiseFit {
-    let weight = (-delta / 2.0).exp();
+pub fn average_with_rival(fit: &NoiseFit, rival: &NoiseFit, weight: f64) -> NoiseFit {
     let total = 1.0 + weight;
     let squared = |f: &NoiseFit, term: Term| -> (f64, f64) {
         f.estimates
@@ -118,7 +118,7 @@ fn mixture_quantile(components: &[(f64, f64, f64); 2], p: f64) -> f64 {
 mod tests {
     use super::*;
     use crate::model::result::fit_for_tests;
-    use crate::model::{Domain, TermEstimate};
+    use crate::model::{bic_weight, Domain, TermEstimate};
 
     fn fit_of(terms: &[(Term, f64, f64)]) -> NoiseFit {
         let estimates = terms
@@ -153,7 +153,7 @@ mod tests {
             (Term::BiasInstability, 3.0, 20.0),
         ]);
 
-        let far = average_with_rival(&base, &rival, 40.0);
+        let far = average_with_rival(&base, &rival, bic_weight(40.0));
         for (a, b) in far.estimates.iter().zip(&base.estimates) {
             assert!((a.value / b.value - 1.0).abs() < 1e-6, "{a:?} vs {b:?}");
             assert!(
@@ -162,7 +162,7 @@ mod tests {
             );
         }
 
-        let even = average_with_rival(&base, &rival, 0.0);
+        let even = average_with_rival(&base, &rival, bic_weight(0.0));
         assert_eq!(
             even.estimates.len(),
             2,
@@ -191,7 +191,7 @@ mod tests {
             (Term::RandomWalk, 1.0, 1e4),
             (Term::RateRandomWalk, 1.0, 50.0),
         ]);
-        let k = average_with_rival(&base, &low_k, 0.0).estimates[1];
+        let k = average_with_rival(&base, &low_k, bic_weight(0.0)).estimates[1];
         assert!(
             k.lo > 0.9 && k.lo < 1.0 && k.hi > 10.0 && k.hi < 10.6,
             "{k:?}"
@@ -207,7 +207,7 @@ mod tests {
         );
 
         // The rival ahead (ΔBIC −4, weight e²): the value leans to its reading.
-        let ahead = average_with_rival(&base, &rival, -4.0);
+        let ahead = average_with_rival(&base, &rival, bic_weight(-4.0));
         let w = 4f64.exp().sqrt();
         let k = &ahead.estimates[1];
         assert!(

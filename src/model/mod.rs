@@ -89,6 +89,6 @@ pub use result::{
     Candidate, Criterion, Domain, EffectEstimate, FitPoint, LackOfFit, NoiseFit, TermEstimate,
     UpperLimit,
 };
-pub use select::{AMBIGUITY_BIC, LACK_OF_FIT_P, SELECTION_WINDOW};
+pub use select::{bic_weight, AMBIGUITY_BIC, LACK_OF_FIT_P, SELECTION_WINDOW};
 pub use terms::{Coefficients, GaussMarkov, Sinusoid, Term, FLICKER_PLATEAU};
 pub use units::{CoefUnit, Sensor, UnitError};

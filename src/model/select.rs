@@ -254,7 +254,7 @@ fn rivals(problem: &Problem, fits: &[(Candidate, Mask)], chosen: Mask, forced: M
         .filter_map(|(c, m)| {
             let fit = problem.irls(*m);
             members(*m).iter().all(|&j| fit.c[j] > 0.0).then(|| Rival {
-                weight: (-(c.score - chosen_score) / 2.0).exp(),
+                weight: bic_weight(c.score - chosen_score),
                 c: fit.c,
             })
         })
@@ -324,7 +324,15 @@ fn prefer_random_walk(mask: Mask, allowed: Mask, fits: &[(Candidate, Mask)]) -> 
     }
 }
 
-/// Whether a ranked subset can be chosen: its fit kept every term positive and it has a score.
+/// A model's weight against one that scored `delta` better on the BIC scale: e^(−delta/2), the
+/// approximate Bayes factor (Bayesian model averaging across term subsets here, across the
+/// residual loop's decision in [`crate::model::average_with_rival`]).
+pub fn bic_weight(delta: f64) -> f64 {
+    (-delta / 2.0).exp()
+}
+
+/// Whether a ranked subset can be chosen: its fit kept every base term positive (a forced effect
+/// may be 0) and it has a score.
 fn eligible(c: &Candidate) -> bool {
     c.proper && c.score.is_finite()
 }

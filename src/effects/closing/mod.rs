@@ -33,8 +33,8 @@ use serde::Serialize;
 
 use crate::avar::{compute, Confidence, Deviations, Statistic, TauGrid};
 use crate::model::{
-    average_with_rival, detect_bandwidth, fit_avar_with, fit_psd_with, Bandwidth, EffectEstimate,
-    EffectShape, FitOptions, FitWarning, NoiseFit, Term, SELECTION_WINDOW,
+    average_with_rival, bic_weight, detect_bandwidth, fit_avar_with, fit_psd_with, Bandwidth,
+    EffectEstimate, EffectShape, FitOptions, FitWarning, NoiseFit, Term, SELECTION_WINDOW,
 };
 use crate::psd::{log_bin, log_bin_resolving, welch, BinnedPsd, Psd, WelchConfig};
 
@@ -565,15 +565,10 @@ fn run_loop(
             return None;
         };
         let (_, allan, spectrum) = *model;
-        // A domain whose fit with the effect scores far worse than without it (a knee below the
-        // spectrum's band, where the spectrum does not vote, and a spectrum fit with the effect
-        // that failed: +18 000 on two accelerometers of the sample) holds no reading worth
-        // averaging: that domain keeps its own.
+        let weight = bic_weight(c.delta_bic);
         let average = |fit: &mut Option<NoiseFit>, other: Option<NoiseFit>| {
             if let (Some(f), Some(o)) = (fit.as_mut(), other) {
-                if score(&o) - score(f) < SELECTION_WINDOW {
-                    *f = average_with_rival(f, &o, c.delta_bic);
-                }
+                *f = average_with_rival(f, &o, weight);
             }
         };
         average(&mut state.allan, allan);
@@ -581,7 +576,7 @@ fn run_loop(
         Some(Rival {
             effect: c.effect,
             delta_bic: c.delta_bic,
-            weight: (-c.delta_bic / 2.0).exp(),
+            weight,
             evidence: c.evidence,
         })
     });
