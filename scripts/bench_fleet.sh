@@ -1,19 +1,24 @@
 #!/usr/bin/env bash
 # Fleet throughput, end to end as a user runs it: N simulated 6-axis IMUs (1 h at 200 Hz, f64,
 # a 2nd-order 50 Hz anti-alias filter, datasheet-like noise, one seed each) screened by
-# `imunoise screen` on the CPU; prints wall time, sensors per second and peak resident memory.
+# `imunoise screen`; prints wall time, sensors per second and peak resident memory.
 #
-# Usage: cargo build --release && scripts/bench_fleet.sh [N=256] [WORK=/tmp/imunoise-fleet]
-# Needs about 40 MB of disk per sensor. Generation is not timed.
+# Usage: cargo build --release && [BACKEND=cpu|gpu|auto] [THREADS=1] scripts/bench_fleet.sh [N=256] [WORK=/tmp/imunoise-fleet]
+# BACKEND (default cpu) and THREADS (files analysed at once, default 1) are passed to screen.
+# Needs about 40 MB of disk per sensor. Generation (on every core) is not timed.
 set -euo pipefail
 N="${1:-256}"
 WORK="${2:-/tmp/imunoise-fleet}"
-BIN="$(cd "$(dirname "$0")/.." && pwd)/target/release/imunoise"
+BACKEND="${BACKEND:-cpu}"
+THREADS="${THREADS:-1}"
+BIN="${BIN:-$(cd "$(dirname "$0")/.." && pwd)/target/release/imunoise}"
+export BIN WORK N
 mkdir -p "$WORK/in"
-for i in $(seq 1 "$N"); do
+generate() {
+  local i=$1 f
   f="$WORK/in/imu_$(printf %04d "$i").arrow"
-  [ -f "$f" ] && continue
-  python3 - "$i" > "$WORK/spec.json" <<'PY'
+  [ -f "$f" ] && return 0
+  python3 - "$i" > "$WORK/spec_$i.json" <<'PY'
 import json, math, sys
 seed = int(sys.argv[1])
 d = math.pi / 180
@@ -24,12 +29,24 @@ gyro = [ch(f"gyro_{a}", "gyro", 0.15 * d / 60, 4 * d / 3600, 2 * d / 3600 / 60) 
 accel = [ch(f"accel_{a}", "accel", 60e-6 * 9.81, 20e-6 * 9.81, 1e-6) for a in "xyz"]
 print(json.dumps({"rate_hz": 200.0, "duration_s": 3600.0, "seed": seed, "channels": gyro + accel}))
 PY
-  "$BIN" simulate --spec "$WORK/spec.json" -o "$f" -q
-done
+  mkdir -p "$WORK/tmp"
+  "$BIN" simulate --spec "$WORK/spec_$i.json" -o "$WORK/tmp/${f##*/}" -q && mv "$WORK/tmp/${f##*/}" "$f"
+  rm -f "$WORK/spec_$i.json"
+}
+export -f generate
+seq 1 "$N" | xargs -P "$(nproc)" -I{} bash -c 'generate {}'
 rm -rf "$WORK/out"
-echo "screen of $N sensors (6 channels, 1 h at 200 Hz each) on $(nproc) cores, CPU backend:"
-/usr/bin/time -f "%e s wall, %U s user, %M KB peak resident" \
-  "$BIN" screen "$WORK/in" -o "$WORK/out" --backend cpu --quiet 2> "$WORK/time.txt" || true
-cat "$WORK/time.txt"
-wall=$(grep -o '^[0-9.]* s wall' "$WORK/time.txt" | cut -d' ' -f1)
-python3 -c "print(f'{$N / $wall:.3f} sensors/s, {$wall / $N:.2f} s per sensor')"
+echo "screen of $N sensors (6 channels, 1 h at 200 Hz each) on $(nproc) cores, backend $BACKEND, $THREADS file(s) at once:"
+# Timed by the parent (wait4), so that no GNU time is needed: wall, CPU and peak resident memory.
+python3 - "$BIN" screen "$WORK/in" -o "$WORK/out" --backend "$BACKEND" --threads "$THREADS" --quiet <<'PY'
+import os, subprocess, sys, time
+n = int(os.environ["N"])
+t0 = time.perf_counter()
+p = subprocess.Popen(sys.argv[1:])
+_, status, ru = os.wait4(p.pid, 0)
+wall = time.perf_counter() - t0
+code = os.waitstatus_to_exitcode(status)
+print(f"{wall:.2f} s wall, {ru.ru_utime:.1f} s user, {ru.ru_stime:.1f} s system, "
+      f"{ru.ru_maxrss / 1024:.0f} MiB peak resident, exit status {code}")
+print(f"{n / wall:.3f} sensors/s, {wall / n:.2f} s per sensor")
+PY

@@ -15,7 +15,11 @@ as they stream together; Allan: the estimator alone). The peers are timed on dat
 (loading excluded). Run it on an otherwise idle machine: both cores are used.
 
 Usage: cargo build --release && python3 scripts/compare_peers.py [--samples N] [--keep DIR]
-Needs numpy, scipy, allantools, pyarrow.
+         [--backends cpu,gpu] [--no-peers]
+--backends runs imunoise once per backend named (default cpu; gpu needs an adapter and fails
+without one); REPEATS (default 5) sets the runs of each measurement and IMUNOISE_BIN the
+binary (default target/release/imunoise); --no-peers skips the peers (where scipy or allantools is not installed).
+Needs numpy and pyarrow, and scipy and allantools unless --no-peers.
 """
 import argparse
 import json
@@ -27,10 +31,10 @@ import tempfile
 import time
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-BIN = ROOT / "target" / "release" / "imunoise"
+BIN = pathlib.Path(os.environ.get("IMUNOISE_BIN", ROOT / "target" / "release" / "imunoise"))
 NPERSEG = 65536
 # Runs of each measurement: both tools are reported at their fastest (wall and compute each).
-REPEATS = 5
+REPEATS = int(os.environ.get("REPEATS", "5"))
 
 
 def log_taus(n, count=100):
@@ -116,6 +120,8 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--samples", type=float, default=1e7)
     ap.add_argument("--keep", type=pathlib.Path)
+    ap.add_argument("--backends", default="cpu")
+    ap.add_argument("--no-peers", action="store_true")
     ap.add_argument("--worker", nargs=2, help=argparse.SUPPRESS)
     ap.add_argument("--taus", help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -140,25 +146,34 @@ def main():
     ]
     print(f"{n} samples, f64 ({data.stat().st_size / 2**20:.0f} MiB file), {os.cpu_count()} cores; imunoise {BIN}")
     print(f"{'task':34} {'tool':11} {'wall s':>8} {'compute s':>10} {'peak MiB':>9}")
+    backends = args.backends.split(",")
     for label, kind, cli in tasks:
-        out_dir = work / f"out-{kind}"
-        runs = []
-        for _ in range(REPEATS):
-            wall, rss, _ = run_measured(
-                [BIN, *cli, "-o", str(out_dir), "--format", "arrow,json", "--quiet", "--backend", "cpu"]
-            )
-            runs.append((wall, rss, imunoise_compute_s(out_dir, kind)))
-        wall = min(r[0] for r in runs)
-        rss = max(r[1] for r in runs)
-        ours = min(r[2] for r in runs)
+        ours = {}
+        for backend in backends:
+            out_dir = work / f"out-{kind}-{backend}"
+            runs = []
+            for _ in range(REPEATS):
+                wall, rss, _ = run_measured(
+                    [BIN, *cli, "-o", str(out_dir), "--format", "arrow,json", "--quiet", "--backend", backend]
+                )
+                runs.append((wall, rss, imunoise_compute_s(out_dir, kind)))
+            wall = min(r[0] for r in runs)
+            rss = max(r[1] for r in runs)
+            compute = min(r[2] for r in runs)
+            ours[backend] = (wall, compute)
+            name = "imunoise" if backends == ["cpu"] else f"imunoise {backend}"
+            print(f"{label if backend == backends[0] else '':34} {name:11} {wall:8.3f} {compute:10.3f} {rss:9.0f}")
+        if args.no_peers:
+            continue
         peer_cmd = [sys.executable, __file__, "--worker", kind, str(data), "--taus", json.dumps(taus)]
         p_wall, p_rss, p_out = run_measured(peer_cmd)
         measured = json.loads(p_out)
         peer, cold = measured["compute_s"], measured["cold_s"]
         peer_name = "scipy" if kind == "welch" else "allantools"
-        print(f"{label:34} {'imunoise':11} {wall:8.3f} {ours:10.3f} {rss:9.0f}")
         print(f"{'':34} {peer_name:11} {p_wall:8.3f} {peer:10.3f} {p_rss:9.0f}   (fastest warm call; first call {cold:.3f} s)")
-        print(f"{'':34} {'ratio':11} {'':8} {peer / ours:9.1f}x (compute)  {peer / wall:.1f}x (imunoise end to end vs peer compute)")
+        for backend, (wall, compute) in ours.items():
+            tag = "ratio" if len(ours) == 1 else f"ratio {backend}"
+            print(f"{'':34} {tag:11} {'':8} {peer / compute:9.1f}x (compute)  {peer / wall:.1f}x (imunoise end to end vs peer compute)")
     if not args.keep:
         import shutil
 

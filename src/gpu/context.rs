@@ -19,6 +19,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 
 use super::pool::{BufferPool, Lease};
 use super::shaders::{Kernel, WORKGROUP};
+use super::timing::{KernelTimer, KernelTimes, Stage, Stamp};
 use super::GpuError;
 
 /// How to open a device.
@@ -44,6 +45,9 @@ pub struct ContextOptions {
     /// "XDG_RUNTIME_DIR is invalid" straight to fd 2 during enumeration. Off by default: it
     /// affects every thread of the process for that moment.
     pub quiet_probe: bool,
+    /// Time every compute pass with GPU timestamps ([`GpuContext::kernel_times`]), when the
+    /// adapter has TIMESTAMP_QUERY. For benchmarks only: each pass is then waited for at once.
+    pub kernel_timing: bool,
 }
 
 impl Default for ContextOptions {
@@ -55,6 +59,7 @@ impl Default for ContextOptions {
             backends: None,
             memory_budget: 512 << 20,
             quiet_probe: false,
+            kernel_timing: false,
         }
     }
 }
@@ -177,6 +182,9 @@ pub fn request_device(
     if options.allow_f64 && adapter.features().contains(wgpu::Features::SHADER_F64) {
         features |= wgpu::Features::SHADER_F64;
     }
+    if options.kernel_timing && adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
+        features |= wgpu::Features::TIMESTAMP_QUERY;
+    }
     pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some("imunoise"),
         required_features: features,
@@ -200,6 +208,7 @@ pub struct GpuContext {
     pipelines: Mutex<HashMap<Kernel, wgpu::ComputePipeline>>,
     pool: BufferPool,
     failure: Arc<Mutex<Option<GpuError>>>,
+    timer: Option<KernelTimer>,
 }
 
 impl GpuContext {
@@ -284,7 +293,14 @@ impl GpuContext {
                 GpuError::DeviceLost(format!("{reason:?}: {message}")),
             );
         });
+        // Timing is on exactly when the device was opened with TIMESTAMP_QUERY, which only
+        // `ContextOptions::kernel_timing` requests.
+        let timer = device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+            .then(|| KernelTimer::new(&queue));
         Ok(GpuContext {
+            timer,
             features: device.features(),
             pool: BufferPool::new(memory_budget),
             info,
@@ -344,6 +360,41 @@ impl GpuContext {
             "{} ({:?}, {:?}, {driver})",
             i.name, i.backend, i.device_type
         )
+    }
+
+    /// Device time of the kernels so far, per estimator; `None` unless the context was opened with
+    /// [`ContextOptions::kernel_timing`] on an adapter that has timestamps.
+    pub fn kernel_times(&self) -> Option<KernelTimes> {
+        self.timer.as_ref().map(KernelTimer::totals)
+    }
+
+    /// Starts the kernel times again from zero.
+    pub fn reset_kernel_times(&self) {
+        if let Some(t) = &self.timer {
+            t.reset();
+        }
+    }
+
+    /// A pair of timestamps for one compute pass of `stage`, when timing is on.
+    pub(crate) fn stamp(&self, stage: Stage) -> Option<Stamp> {
+        self.timer.as_ref().map(|t| t.stamp(&self.device, stage))
+    }
+
+    /// Submits `encoder`, first resolving `stamp` into it; with a stamp, waits for the
+    /// submission and adds its pass's span to the kernel times.
+    pub(crate) fn submit_timed(
+        &self,
+        mut encoder: wgpu::CommandEncoder,
+        stamp: Option<Stamp>,
+    ) -> Result<(), GpuError> {
+        if let Some(s) = &stamp {
+            s.resolve(&mut encoder);
+        }
+        self.queue.submit([encoder.finish()]);
+        match (stamp, &self.timer) {
+            (Some(s), Some(t)) => t.collect(&self.device, s),
+            _ => Ok(()),
+        }
     }
 
     /// The first failure the device reported, if any (the context is unusable after one).

@@ -48,10 +48,13 @@ pub mod mirror;
 mod pool;
 mod readback;
 pub mod shaders;
+mod staging;
+mod timing;
 pub mod welch;
 
 pub use backend::GpuBackend;
 pub use context::{local_fft_size, request_adapter, request_device, ContextOptions, GpuContext};
 pub use error::GpuError;
 pub use fallback::{Fallback, FallbackLog, FallbackReason, Task};
+pub use timing::KernelTimes;
 pub use welch::GpuWelch;

@@ -1346,6 +1346,60 @@ mod fallback {
         }
     }
 
+    /// With kernel timing asked for, every pass of both estimators is timed (when the adapter has
+    /// timestamps) and the numbers are the untimed context's; without it there are no times.
+    #[test]
+    fn kernel_timing_counts_every_pass_and_changes_no_number() {
+        let untimed = gpu!();
+        assert!(untimed.kernel_times().is_none(), "timing is off by default");
+        let options = ContextOptions {
+            kernel_timing: true,
+            ..ContextOptions::default()
+        };
+        let timed = match GpuContext::with_options(&options) {
+            Ok(ctx) => Arc::new(ctx),
+            Err(e) => return skip_or_fail(&e),
+        };
+        let Some(zero) = timed.kernel_times() else {
+            let adapter = imunoise::gpu::request_adapter(&options).unwrap();
+            assert!(
+                !adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY),
+                "the adapter has timestamps but the context does not time"
+            );
+            return;
+        };
+        assert_eq!(zero, imunoise::gpu::KernelTimes::default());
+        let channels = vec![imu(20_000, 3), imu(20_000, 4)];
+        let plan = WelchConfig::new(1024).validate().unwrap();
+        let psd_timed = gpu_welch(&timed, &channels, 100.0, &plan);
+        let psd_untimed = gpu_welch(&untimed, &channels, 100.0, &plan);
+        assert_eq!(psd_timed, psd_untimed);
+        let grid = TauGrid::Explicit(vec![1, 2, 4, 7, 100]);
+        let run = |ctx: &Arc<GpuContext>| {
+            GpuBackend::with_context(Arc::clone(ctx))
+                .deviations(
+                    &channels,
+                    100.0,
+                    &grid,
+                    Statistic::Oadev,
+                    Confidence::OneSigma,
+                )
+                .into_iter()
+                .map(Result::unwrap)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(run(&timed), run(&untimed));
+        let t = timed.kernel_times().unwrap();
+        assert!(t.welch_passes >= 1 && t.allan_passes >= 1, "{t:?}");
+        assert!(t.welch > std::time::Duration::ZERO, "{t:?}");
+        assert!(t.allan > std::time::Duration::ZERO, "{t:?}");
+        timed.reset_kernel_times();
+        assert_eq!(
+            timed.kernel_times(),
+            Some(imunoise::gpu::KernelTimes::default())
+        );
+    }
+
     #[test]
     fn describe_names_the_adapter() {
         let ctx = gpu!();

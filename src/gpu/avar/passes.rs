@@ -5,6 +5,7 @@
 use super::params::{OctaveParams, PrefixParams};
 use crate::gpu::buffers::{bind_group, dispatch, Buf};
 use crate::gpu::shaders::{Kernel, AVAR_ITEMS, WORKGROUP};
+use crate::gpu::timing::{Stage, Stamp};
 use crate::gpu::{GpuContext, GpuError};
 
 /// Part of a buffer, as bound.
@@ -149,16 +150,17 @@ pub(crate) fn submit(ctx: &GpuContext, passes: &[Pass<'_>]) -> Result<InFlight, 
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("allan variance"),
         });
+    let stamp = ctx.stamp(Stage::Allan);
     {
         let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("allan variance"),
-            timestamp_writes: None,
+            timestamp_writes: stamp.as_ref().map(Stamp::writes),
         });
         for (pipeline, group, groups) in &work {
             dispatch(&mut cpass, pipeline, group, (*groups, 1));
         }
     }
-    ctx.queue().submit([encoder.finish()]);
+    ctx.submit_timed(encoder, stamp)?;
     ctx.check()?;
     Ok(InFlight {
         _params: vec![octave_buf, prefix_buf],

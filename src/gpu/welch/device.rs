@@ -8,6 +8,7 @@ use crate::gpu::buffers::{bind_group, dispatch, Buf};
 use crate::gpu::fft::{twiddles, FftAlgorithm};
 use crate::gpu::readback::read_buffer;
 use crate::gpu::shaders::{Kernel, WORKGROUP};
+use crate::gpu::timing::{Stage, Stamp};
 use crate::gpu::{GpuContext, GpuError};
 
 /// Capacities of a job's buffers.
@@ -181,7 +182,7 @@ impl WelchDevice {
         );
         self.input.write(&self.ctx, 0, input);
         self.refs.write(&self.ctx, 0, refs);
-        self.submit(&self.kernels(), segments);
+        self.submit(&self.kernels(), segments)?;
         self.ctx.check()
     }
 
@@ -201,17 +202,18 @@ impl WelchDevice {
     }
 
     /// Encodes and submits `kernels` for a batch of `segments` per channel.
-    fn submit(&self, kernels: &[Kernel], segments: usize) {
+    fn submit(&self, kernels: &[Kernel], segments: usize) -> Result<(), GpuError> {
         let mut encoder =
             self.ctx
                 .device()
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("welch batch"),
                 });
+        let stamp = self.ctx.stamp(Stage::Welch);
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("welch"),
-                timestamp_writes: None,
+                timestamp_writes: stamp.as_ref().map(Stamp::writes),
             });
             for (kernel, pipeline, group) in &self.stages {
                 if kernels.contains(kernel) {
@@ -219,7 +221,7 @@ impl WelchDevice {
                 }
             }
         }
-        self.ctx.queue().submit([encoder.finish()]);
+        self.ctx.submit_timed(encoder, stamp)
     }
 
     /// Workgroups of each kernel for `segments` segments per channel.
@@ -270,7 +272,7 @@ impl WelchDevice {
 
     /// Runs one kernel on what was loaded.
     pub(crate) fn run_kernel(&self, kernel: Kernel, segments: usize) -> Result<(), GpuError> {
-        self.submit(&[kernel], segments);
+        self.submit(&[kernel], segments)?;
         self.ctx.wait()
     }
 

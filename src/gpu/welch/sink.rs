@@ -26,6 +26,7 @@ use super::{layout, WelchLayout};
 use crate::estimate::WelchSink;
 use crate::gpu::fallback::{FallbackLog, Task};
 use crate::gpu::fft::FftAlgorithm;
+use crate::gpu::staging;
 use crate::gpu::{FallbackReason, GpuContext, GpuError};
 use crate::psd::{Detrend, Psd, PsdError, WelchAccumulator, WelchPlan};
 
@@ -241,20 +242,20 @@ impl GpuWelch {
             let count = batch.min(nseg - s0);
             let start = s0 * step;
             let stride = (count - 1) * step + n;
-            self.staging.clear();
-            for (c, (held, x)) in self.held.iter().zip(chunk).enumerate() {
+            self.staging.resize(self.channels * stride, 0.0);
+            let rows = self.staging.chunks_mut(stride);
+            for (c, ((held, x), row)) in self.held.iter().zip(chunk).zip(rows).enumerate() {
                 let (a, b) = split_range(held, x, start, stride);
                 // The batch mean, in f64, as the reference: what is left fits f32 with the
                 // noise's own digits. Detrending removes it again; without detrending the
                 // kernel adds it back, so it is not used there.
                 let reference = if subtract_mean {
-                    (a.iter().sum::<f64>() + b.iter().sum::<f64>()) / stride as f64
+                    staging::sum(a, b) / stride as f64
                 } else {
                     0.0
                 };
                 refs[c] = reference as f32;
-                self.staging
-                    .extend(a.iter().chain(b).map(|&v| (v - reference) as f32));
+                staging::convert_into(row, a, b, reference);
             }
             device.run_batch(&self.staging, &refs, count, stride, pending == 0)?;
             pending += 1;
