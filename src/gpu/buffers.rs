@@ -52,6 +52,25 @@ impl Buf {
         })
     }
 
+    /// Queues a write of `bytes` bytes at byte `offset` (done before the next submission runs),
+    /// which `fill` writes straight into the queue's staging memory: no host copy of the data is
+    /// made first. A write the device refuses is reported through the context's error callback,
+    /// as a refused `write` is.
+    pub(crate) fn write_with(
+        &self,
+        ctx: &GpuContext,
+        offset: u64,
+        bytes: u64,
+        fill: impl FnOnce(wgpu::WriteOnly<'_, [u8]>),
+    ) {
+        let Some(size) = NonZeroU64::new(bytes) else {
+            return;
+        };
+        if let Some(mut view) = ctx.queue().write_buffer_with(&self.lease, offset, size) {
+            fill(view.slice(..));
+        }
+    }
+
     /// Queues a write of `data` at byte `offset` (done before the next submission runs).
     pub(crate) fn write<T: bytemuck::Pod>(&self, ctx: &GpuContext, offset: u64, data: &[T]) {
         if !data.is_empty() {

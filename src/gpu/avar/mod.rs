@@ -34,7 +34,6 @@ use super::buffers::Buf;
 use super::chunking::{spans, Caps, Paging};
 use super::readback::read_buffer;
 use super::shaders::Kernel;
-use super::staging;
 use super::{GpuContext, GpuError};
 
 /// One channel's data for [`oadev_variances`].
@@ -146,8 +145,7 @@ fn group_variances(
         let levels = if ms.iter().any(|m| m.is_power_of_two()) {
             let a = Paged::new(ctx, f32_paging, n)?;
             let b = Paged::new(ctx, f32_paging, n)?;
-            let d = staging::converted(ch.y, ch.mean);
-            a.upload(ctx, &d);
+            a.upload_converted(ctx, ch.y, ch.mean);
             Some([a, b])
         } else {
             None

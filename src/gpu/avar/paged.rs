@@ -4,6 +4,7 @@
 use super::passes::View;
 use crate::gpu::buffers::Buf;
 use crate::gpu::chunking::Paging;
+use crate::gpu::staging;
 use crate::gpu::{GpuContext, GpuError};
 
 pub(crate) struct Paged {
@@ -21,14 +22,32 @@ impl Paged {
         Ok(Paged { pages, paging, len })
     }
 
-    /// Queues the upload of `data` (`len` values of `paging.elem` bytes).
+    /// Queues the upload of `data` (`len` values of `paging.elem` bytes), copied on every core
+    /// straight into the queue's staging memory.
     pub(crate) fn upload<T: bytemuck::Pod>(&self, ctx: &GpuContext, data: &[T]) {
         debug_assert_eq!(data.len(), self.len);
         debug_assert_eq!(std::mem::size_of::<T>() as u64, self.paging.elem);
         for (p, page) in self.pages.iter().enumerate() {
             let start = p * self.paging.page_len;
             let end = start + self.paging.page_len_of(p, self.len);
-            page.write(ctx, 0, &data[start..end]);
+            let src = &data[start..end];
+            page.write_with(ctx, 0, std::mem::size_of_val(src) as u64, |dst| {
+                staging::fill_copy(dst, src)
+            });
+        }
+    }
+
+    /// Queues the upload of `(v − reference) as f32` of every `v` of `y` (`len` values of 4
+    /// bytes), converted on every core straight into the queue's staging memory.
+    pub(crate) fn upload_converted(&self, ctx: &GpuContext, y: &[f64], reference: f64) {
+        debug_assert_eq!(y.len(), self.len);
+        debug_assert_eq!(self.paging.elem, 4);
+        for (p, page) in self.pages.iter().enumerate() {
+            let start = p * self.paging.page_len;
+            let src = &y[start..start + self.paging.page_len_of(p, self.len)];
+            page.write_with(ctx, 0, 4 * src.len() as u64, |dst| {
+                staging::fill_converted(dst, src, &[], reference)
+            });
         }
     }
 

@@ -152,18 +152,18 @@ impl WelchDevice {
     }
 
     /// Runs one batch: `segments` segments of each channel, whose samples (relative to `refs`,
-    /// channel-major, `stride` per channel) are in `input`. With `reset` the running sums start
-    /// again from this batch. Only queues the work; results come with [`read_sums`](Self::read_sums).
+    /// channel-major, `stride` per channel, as f32) `fill` writes into the upload's staging
+    /// memory. With `reset` the running sums start again from this batch. Only queues the work;
+    /// results come with [`read_sums`](Self::read_sums).
     pub(crate) fn run_batch(
         &self,
-        input: &[f32],
+        fill: impl FnOnce(wgpu::WriteOnly<'_, [u8]>),
         refs: &[f32],
         segments: usize,
         stride: usize,
         reset: bool,
     ) -> Result<(), GpuError> {
         debug_assert!(segments <= self.cap.segments && stride <= self.cap.stride);
-        debug_assert_eq!(input.len(), self.cap.channels * stride);
         let params = WelchParams {
             segments: segments as u32,
             input_stride: stride as u32,
@@ -180,7 +180,8 @@ impl WelchDevice {
                 _pad: 0,
             }],
         );
-        self.input.write(&self.ctx, 0, input);
+        self.input
+            .write_with(&self.ctx, 0, (self.cap.channels * stride * 4) as u64, fill);
         self.refs.write(&self.ctx, 0, refs);
         self.submit(&self.kernels(), segments)?;
         self.ctx.check()

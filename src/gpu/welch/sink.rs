@@ -15,8 +15,9 @@
 //! per push is what makes this possible without keeping past samples; it costs one
 //! synchronisation per push, which is small next to a push's worth of segments.
 //!
-//! Host memory: the held samples (fewer than nperseg per channel, as on the CPU) and one batch of
-//! f32 staging, whose size the device limits and the memory budget bound.
+//! Host memory: the held samples (fewer than nperseg per channel, as on the CPU) and the queue's
+//! staging memory for one batch in flight (the samples are converted straight into it), whose
+//! size the device limits and the memory budget bound.
 
 use std::sync::Arc;
 
@@ -50,7 +51,6 @@ pub struct GpuWelch {
     peak_buffered: usize,
     error: Option<PsdError>,
     log: Option<Arc<FallbackLog>>,
-    staging: Vec<f32>,
     spec: DeviceSpec,
 }
 
@@ -134,7 +134,6 @@ impl GpuWelch {
             peak_buffered: 0,
             error,
             log: None,
-            staging: Vec::new(),
             spec,
         })
     }
@@ -242,22 +241,34 @@ impl GpuWelch {
             let count = batch.min(nseg - s0);
             let start = s0 * step;
             let stride = (count - 1) * step + n;
-            self.staging.resize(self.channels * stride, 0.0);
-            let rows = self.staging.chunks_mut(stride);
-            for (c, ((held, x), row)) in self.held.iter().zip(chunk).zip(rows).enumerate() {
-                let (a, b) = split_range(held, x, start, stride);
-                // The batch mean, in f64, as the reference: what is left fits f32 with the
-                // noise's own digits. Detrending removes it again; without detrending the
-                // kernel adds it back, so it is not used there.
-                let reference = if subtract_mean {
-                    staging::sum(a, b) / stride as f64
-                } else {
-                    0.0
-                };
-                refs[c] = reference as f32;
-                staging::convert_into(row, a, b, reference);
+            // Each channel's part of the batch, and its reference: the batch mean, in f64, so
+            // that what is left fits f32 with the noise's own digits. Detrending removes it
+            // again; without detrending the kernel adds it back, so it is not used there.
+            let parts: Vec<(&[f64], &[f64], f64)> = self
+                .held
+                .iter()
+                .zip(chunk)
+                .map(|(held, x)| {
+                    let (a, b) = split_range(held, x, start, stride);
+                    let reference = if subtract_mean {
+                        staging::sum(a, b) / stride as f64
+                    } else {
+                        0.0
+                    };
+                    (a, b, reference)
+                })
+                .collect();
+            for (r, part) in refs.iter_mut().zip(&parts) {
+                *r = part.2 as f32;
             }
-            device.run_batch(&self.staging, &refs, count, stride, pending == 0)?;
+            let fill = |mut dst: wgpu::WriteOnly<'_, [u8]>| {
+                for &(a, b, reference) in &parts {
+                    let (row, rest) = dst.split_at(4 * stride);
+                    staging::fill_converted(row, a, b, reference);
+                    dst = rest;
+                }
+            };
+            device.run_batch(fill, &refs, count, stride, pending == 0)?;
             pending += 1;
             if pending == FLUSH_BATCHES {
                 add_into(&mut out, &device.read_sums()?);
