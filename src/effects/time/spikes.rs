@@ -549,7 +549,7 @@ mod tests {
             let mut y = clean.clone();
             let mut truth = Vec::new();
             for i in (50..n - 50).step_by(100) {
-                y[i] += if (i / 100 + seed as usize) % 2 == 0 {
+                y[i] += if (i / 100 + seed as usize).is_multiple_of(2) {
                     8.0
                 } else {
                     -8.0
