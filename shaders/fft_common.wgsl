@@ -42,19 +42,24 @@ fn mul_neg_i(a: vec2<f32>) -> vec2<f32> {
     return vec2<f32>(a.y, -a.x);
 }
 
-// One radix-R Stockham stage over `len` values, R in {2, 4}, from `fa` to `fb` when `a_to_b`, else
-// from `fb` to `fa`. `ns` is the length of the sub-transforms already done; `nfft_over` is
-// NFFT / (ns * R), the stride that turns the stage's twiddle exponent into a `tw` index.
+// One radix-R Stockham stage over `count` independent transforms of `len` values each, transform
+// b at [b*len, (b+1)*len), R in {2, 4}, from `fa` to `fb` when `a_to_b`, else from `fb` to `fa`.
+// `ns` is the length of the sub-transforms already done; `nfft_over` is NFFT / (ns * R), the
+// stride that turns the stage's twiddle exponent into a `tw` index.
 //
-// Butterfly j (0 <= j < len/R), k = j mod ns:
-//   v[r] = src[j + r*len/R] * exp(-2*pi*i*r*k/(ns*R))
+// Butterfly j (0 <= j < len/R) of transform b, k = j mod ns:
+//   v[r] = src[b*len + j + r*len/R] * exp(-2*pi*i*r*k/(ns*R))
 //   v = DFT_R(v)
-//   dst[(j/ns)*ns*R + k + r*ns] = v[r]
-fn stockham_stage(len: u32, radix: u32, ns: u32, nfft_over: u32, a_to_b: bool, tid: u32) {
+//   dst[b*len + (j/ns)*ns*R + k + r*ns] = v[r]
+fn stockham_stage(len: u32, count: u32, radix: u32, ns: u32, nfft_over: u32, a_to_b: bool, tid: u32) {
     let quarter = len / radix;
-    for (var j = tid; j < quarter; j += WG) {
-        let k = j & (ns - 1u);
-        let out = (j - k) * radix + k;
+    let shift = firstTrailingBit(quarter);
+    for (var i = tid; i < quarter * count; i += WG) {
+        let base = (i >> shift) * len;
+        let jj = i & (quarter - 1u);
+        let k = jj & (ns - 1u);
+        let out = base + (jj - k) * radix + k;
+        let j = base + jj;
         if radix == 4u {
             var v0: vec2<f32>;
             var v1: vec2<f32>;
@@ -116,29 +121,42 @@ fn stockham_stage(len: u32, radix: u32, ns: u32, nfft_over: u32, a_to_b: bool, t
     }
 }
 
-// In-place (as seen by the caller) forward FFT of `len` values held in `fa`, len a power of two in
-// [2, LOCAL_MAX], NFFT = `nfft`. Returns true when the result ended in `fb`, false when in `fa`.
-// One radix-2 stage first when log2(len) is odd, radix-4 stages after that; one barrier per stage.
-// The caller must have put a barrier between writing `fa` and calling this.
-fn stockham_local(len: u32, nfft: u32, tid: u32) -> bool {
+// In-place (as seen by the caller) forward FFTs of `count` transforms of `len` values each, held
+// one after another in `fa`, len a power of two in [2, LOCAL_MAX], count * len <= LOCAL_MAX,
+// NFFT = `nfft`. Returns true when the results ended in `fb`, false when in `fa`. One radix-2
+// stage first when log2(len) is odd, radix-4 stages after that; one barrier per stage. The caller
+// must have put a barrier between writing `fa` and calling this.
+fn stockham_batch(len: u32, count: u32, nfft: u32, tid: u32) -> bool {
     var ns = 1u;
     var a_to_b = true;
     let log2len = firstTrailingBit(len);
     if (log2len & 1u) == 1u {
-        stockham_stage(len, 2u, ns, nfft / 2u, a_to_b, tid);
+        stockham_stage(len, count, 2u, ns, nfft / 2u, a_to_b, tid);
         workgroupBarrier();
         ns = 2u;
         a_to_b = !a_to_b;
     }
     // `ns < len` is uniform: every thread runs the same stages.
     while ns < len {
-        stockham_stage(len, 4u, ns, nfft / (ns * 4u), a_to_b, tid);
+        stockham_stage(len, count, 4u, ns, nfft / (ns * 4u), a_to_b, tid);
         workgroupBarrier();
         ns = ns * 4u;
         a_to_b = !a_to_b;
     }
     // After an odd number of stages the data is in fb.
     return !a_to_b;
+}
+
+// One transform of `len` values (see `stockham_batch`).
+fn stockham_local(len: u32, nfft: u32, tid: u32) -> bool {
+    return stockham_batch(len, 1u, nfft, tid);
+}
+
+// Transforms of length `len` one workgroup does at once in the four-step passes: as many as fill
+// the workgroup arrays, at most `available`. Must equal `fft::per_group` on the host, which
+// sizes the dispatch.
+fn per_group(available: u32, len: u32) -> u32 {
+    return min(available, max(1u, LOCAL_MAX / len));
 }
 
 // Reads value `i` of the local result.

@@ -44,6 +44,15 @@ pub fn algorithm(nfft: usize, local: usize) -> Option<FftAlgorithm> {
     (m1 <= local).then_some(FftAlgorithm::FourStep { m1, m2 })
 }
 
+/// Transforms of length `len` one workgroup of the four-step passes does at once: as many as fill
+/// its arrays of `local` values, at most `available` (`per_group` in `shaders/fft_common.wgsl`,
+/// which must agree). Several columns per workgroup make the column pass's reads and writes, at a
+/// stride of M1 values within a column, come in runs of consecutive addresses; several rows per
+/// workgroup do the same for the row pass's writes into natural order.
+pub fn per_group(available: usize, len: usize, local: usize) -> usize {
+    available.min((local / len.max(1)).max(1))
+}
+
 /// exp(−2πi·t/nfft) for t in [0, nfft/2), as (re, im) in f32, rounded once from f64.
 ///
 /// The angle is formed from the exact integer ratio t/nfft, and the octant symmetry keeps every

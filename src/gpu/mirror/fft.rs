@@ -173,7 +173,8 @@ pub fn workgroup_sum(wg: &mut Workgroup, v: &[C32]) -> C32 {
     total
 }
 
-/// `fft_columns` over every column of every slot of `work` (rows of `p.half` values).
+/// `fft_columns` over every column of every slot of `work` (rows of `p.half` values). The kernel
+/// transforms several columns per workgroup (`per_group`), each one exactly as here.
 pub fn fft_columns(
     p: &WelchParams,
     twiddles: &[C32],
@@ -200,7 +201,8 @@ pub fn fft_columns(
     }
 }
 
-/// `fft_rows` over every row of every slot: `work` (after `fft_columns`) into `spectrum`.
+/// `fft_rows` over every row of every slot: `work` (after `fft_columns`) into `spectrum`. The kernel
+/// transforms several rows per workgroup, each one exactly as here.
 pub fn fft_rows(
     p: &WelchParams,
     twiddles: &[C32],

@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use super::params::{AccumulateParams, WelchParams};
 use crate::gpu::buffers::{bind_group, dispatch, Buf};
-use crate::gpu::fft::{twiddles, FftAlgorithm};
+use crate::gpu::fft::{per_group, twiddles, FftAlgorithm};
 use crate::gpu::readback::read_buffer;
 use crate::gpu::shaders::{Kernel, WORKGROUP};
 use crate::gpu::timing::{Stage, Stamp};
@@ -236,12 +236,21 @@ impl WelchDevice {
         };
         match kernel {
             Kernel::WelchLocal | Kernel::WelchPrepare => (segments as u32, channels),
-            Kernel::FftColumns => (m1, slots),
-            Kernel::FftRows => (m2, slots),
+            Kernel::FftColumns => (m1 / self.per_group(m1, m2), slots),
+            Kernel::FftRows => (m2 / self.per_group(m2, m1), slots),
             Kernel::WelchPower => (bins_groups, slots),
             Kernel::WelchAccumulate => (bins_groups, channels),
             _ => (0, 0),
         }
+    }
+
+    /// Transforms of length `len` per workgroup in a four-step pass (see [`per_group`]).
+    fn per_group(&self, available: u32, len: u32) -> u32 {
+        per_group(
+            available as usize,
+            len as usize,
+            self.ctx.local_fft_size() as usize,
+        ) as u32
     }
 
     // Single-kernel access, for checking each kernel against its CPU mirror (`gpu::kernels`).
