@@ -140,21 +140,46 @@ fn a_line_and_a_coupling_together_are_both_found() {
     assert_eq!(k, ["coupling", "sinusoid"], "{:?}", o.report.rejected);
 }
 
+/// (coefficient, lo, hi) from a coupling note's "coefficient C [LO, HI]".
+fn coefficient_in(note: &str) -> Option<(f64, f64, f64)> {
+    let rest = note.split("coefficient ").nth(1)?;
+    let (c, rest) = rest.split_once(" [")?;
+    let (lo, rest) = rest.split_once(", ")?;
+    let (hi, _) = rest.split_once(']')?;
+    Some((c.parse().ok()?, lo.parse().ok()?, hi.parse().ok()?))
+}
+
 /// Negative control: the IEEE model alone (white, flicker, random walk) with an independent
 /// warming temperature channel; over 12 seeds at most one addition in all (measured: see the
 /// printed count).
 #[test]
 fn pure_ieee_noise_gets_nothing_added() {
     let mut added = Vec::new();
+    let mut covers_zero = 0;
     for seed in 100..112 {
         let cols = record(json!({}), true, 1200.0, seed);
         let o = run(&cols);
         if !o.report.steps.is_empty() {
             added.push((seed, kinds(&o)));
         }
+        // The rejected coupling still states its coefficient and interval (a bound on the
+        // sensitivity), which covers 0 about as often as its probability says.
+        let note = &o
+            .report
+            .rejected
+            .iter()
+            .find(|r| r.kind == "coupling")
+            .expect("the coupling to the temperature channel is listed")
+            .note;
+        let (c, lo, hi) = coefficient_in(note).unwrap_or_else(|| panic!("{note}"));
+        assert!(lo <= c && c <= hi, "{note}");
+        covers_zero += usize::from(lo <= 0.0 && 0.0 <= hi);
     }
-    println!("false additions: {added:?} in 12 records");
+    println!(
+        "false additions: {added:?} in 12 records; coupling interval covers 0 in {covers_zero}"
+    );
     assert!(added.len() <= 1, "{added:?}");
+    assert!(covers_zero >= 5, "{covers_zero} of 12");
 }
 
 /// A Gauss–Markov process of Tc 60 s in 30 min (30 Tc): its short-τ rise reads as a rate random

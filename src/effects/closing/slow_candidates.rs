@@ -81,6 +81,9 @@ pub(super) fn slow_candidates(
         let c = refined(state, fs, cfg, first, promising, &estimate, &|v, c| {
             remove_coupling(v, a.samples, c)
         });
+        // The coefficient and its interval are in the evidence whether or not the coupling is
+        // admitted: a sensitivity to temperature is a datasheet figure, and a bound on it is an
+        // answer too.
         // The model-free test on the same data, for the reader: it needs no noise model but
         // weighs the increments equally, so it is weaker on a smooth aux.
         let free = fit_coupling(y, a.samples, fs, p).map_or(String::new(), |f| {
@@ -90,8 +93,8 @@ pub(super) fn slow_candidates(
         out.push(Candidate {
             delta_bic: c.delta_bic,
             evidence: format!(
-                "time series: regression on {} under the fitted noise model (t = {:.1} on {} increments of {:.1} s, p = {:.1e}){free}",
-                a.name, c.z, c.n_eff, c.scale_s, c.p_value
+                "time series: regression on {} under the fitted noise model: coefficient {:.3e} [{:.3e}, {:.3e}] per unit of {} (t = {:.1} on {} increments of {:.1} s, p = {:.1e}){free}",
+                a.name, c.coefficient, c.lo, c.hi, a.name, c.z, c.n_eff, c.scale_s, c.p_value
             ),
             effect: Effect::Coupling {
                 aux: a.name.to_string(),
