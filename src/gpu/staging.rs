@@ -34,39 +34,42 @@ pub(crate) fn sum(a: &[f64], b: &[f64]) -> f64 {
     blocks.iter().sum()
 }
 
+/// Pairs `dst` with `src` (of its length) block by block, `block` elements each (the last
+/// shorter), appending the pairs to `out`: the units of work spread over the cores.
+fn pair_blocks<'a, 's, T, S>(
+    mut dst: WriteOnly<'a, [T]>,
+    mut src: &'s [S],
+    block: usize,
+    out: &mut Vec<(Block<'a, T>, &'s [S])>,
+) {
+    debug_assert_eq!(dst.len(), src.len());
+    while !src.is_empty() {
+        let take = src.len().min(block);
+        let (head, tail) = dst.split_at(take);
+        out.push((Block(head), &src[..take]));
+        (dst, src) = (tail, &src[take..]);
+    }
+}
+
 /// Writes `(v − reference) as f32` of every `v` of `a ++ b` into `dst` (device staging memory of
 /// 4 bytes per value), block by block on every core.
 pub(crate) fn fill_converted(dst: WriteOnly<'_, [u8]>, a: &[f64], b: &[f64], reference: f64) {
     let (words, rest) = dst.into_chunks::<4>();
     debug_assert_eq!(rest.len(), 0);
-    debug_assert_eq!(words.len(), a.len() + b.len());
     let (wa, wb) = words.split_at(a.len());
     let mut blocks = Vec::with_capacity((a.len() + b.len()) / BLOCK + 2);
-    for (mut dst, mut src) in [(wa, a), (wb, b)] {
-        while !src.is_empty() {
-            let take = src.len().min(BLOCK);
-            let (head, tail) = dst.split_at(take);
-            blocks.push((Block(head), &src[..take]));
-            (dst, src) = (tail, &src[take..]);
-        }
-    }
+    pair_blocks(wa, a, BLOCK, &mut blocks);
+    pair_blocks(wb, b, BLOCK, &mut blocks);
     blocks.into_par_iter().for_each(|(Block(dst), src)| {
         dst.write_iter(src.iter().map(|&v| ((v - reference) as f32).to_ne_bytes()));
     });
 }
 
 /// Copies `src` into `dst` (device staging memory of its size), block by block on every core.
-pub(crate) fn fill_copy<T: bytemuck::Pod>(mut dst: WriteOnly<'_, [u8]>, src: &[T]) {
-    let mut bytes: &[u8] = bytemuck::cast_slice(src);
-    debug_assert_eq!(dst.len(), bytes.len());
-    let block = BLOCK * 8;
-    let mut blocks = Vec::with_capacity(bytes.len() / block + 1);
-    while !bytes.is_empty() {
-        let take = bytes.len().min(block);
-        let (head, tail) = dst.split_at(take);
-        blocks.push((Block(head), &bytes[..take]));
-        (dst, bytes) = (tail, &bytes[take..]);
-    }
+pub(crate) fn fill_copy<T: bytemuck::Pod>(dst: WriteOnly<'_, [u8]>, src: &[T]) {
+    let bytes: &[u8] = bytemuck::cast_slice(src);
+    let mut blocks = Vec::with_capacity(bytes.len() / (8 * BLOCK) + 1);
+    pair_blocks(dst, bytes, 8 * BLOCK, &mut blocks);
     blocks
         .into_par_iter()
         .for_each(|(Block(mut dst), src)| dst.copy_from_slice(src));
