@@ -31,18 +31,16 @@ use imunoise::avar::{Confidence, Deviations, Statistic, TauGrid};
 use imunoise::estimate::{Backend, CpuBackend};
 use imunoise::gpu::{ContextOptions, GpuBackend, GpuContext, KernelTimes};
 use imunoise::psd::{Psd, WelchConfig};
+use imunoise::sim::rng::Rng;
 
-/// Gyro-like samples: uniform white noise on a bias, plus a slow random walk (the content does not
-/// change the cost; the bias and walk make precision matter).
+/// Gyro-like samples: white noise on a bias, plus a slow random walk (the content does not change
+/// the cost; the bias and walk make precision matter).
 fn signal(n: usize, seed: u64) -> Vec<f64> {
-    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    let mut rng = Rng::new(seed);
     let mut walk = 0.0;
     (0..n)
         .map(|_| {
-            s = s
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            let u = rng.gauss();
             walk += 1e-3 * u;
             1e3 + u + walk
         })
