@@ -83,7 +83,9 @@ pub(super) fn slow_candidates(
         });
         // The coefficient and its interval are in the evidence whether or not the coupling is
         // admitted: a sensitivity to temperature is a datasheet figure, and a bound on it is an
-        // answer too.
+        // answer too. In SI (the channel's SI unit per the aux channel's: (rad/s)/K for a gyro on
+        // a temperature), as everything the loop holds; the report layer names the units of the
+        // couplings it admits.
         // The model-free test on the same data, for the reader: it needs no noise model but
         // weighs the increments equally, so it is weaker on a smooth aux.
         let free = fit_coupling(y, a.samples, fs, p).map_or(String::new(), |f| {
@@ -93,8 +95,8 @@ pub(super) fn slow_candidates(
         out.push(Candidate {
             delta_bic: c.delta_bic,
             evidence: format!(
-                "time series: regression on {} under the fitted noise model: coefficient {:.3e} [{:.3e}, {:.3e}] per unit of {} (t = {:.1} on {} increments of {:.1} s, p = {:.1e}){free}",
-                a.name, c.coefficient, c.lo, c.hi, a.name, c.z, c.n_eff, c.scale_s, c.p_value
+                "time series: regression on {} under the fitted noise model: coefficient {:.3e} [{:.3e}, {:.3e}] in SI (t = {:.1} on {} increments of {:.1} s, p = {:.1e}){free}",
+                a.name, c.coefficient, c.lo, c.hi, c.z, c.n_eff, c.scale_s, c.p_value
             ),
             effect: Effect::Coupling {
                 aux: a.name.to_string(),
