@@ -16,6 +16,11 @@ use super::interval::coefficient_interval;
 use super::{NoiseFit, Term};
 use crate::stats::{chi2_sf, norm_sf};
 
+/// A rival model's share of the total weight, its own `weight` against the final model's 1.
+pub fn rival_share(weight: f64) -> f64 {
+    weight / (1.0 + weight)
+}
+
 /// `fit`'s estimates averaged with `rival`'s, the rival weighing `weight` against `fit`'s 1 (its
 /// [`super::bic_weight`]: e^(−ΔBIC/2) for a rival ΔBIC behind, above 1 for one ahead yet not
 /// admitted). Each term of `fit` is averaged on the squared coefficient with those weights (a

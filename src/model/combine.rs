@@ -172,7 +172,7 @@ impl FitWarning {
                     "gauss_markov" => "Gauss–Markov process",
                     other => other,
                 },
-                100.0 * weight / (1.0 + weight)
+                100.0 * super::rival_share(*weight)
             ),
         }
     }

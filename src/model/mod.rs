@@ -77,7 +77,7 @@ mod terms;
 mod units;
 
 pub use avar_fit::{fit_avar, fit_avar_with};
-pub use average::average_with_rival;
+pub use average::{average_with_rival, rival_share};
 pub use bandwidth::{detect_bandwidth, Bandwidth, FilterForm, LowPass, BAND_BIAS};
 pub use combine::{combine, read_offs, Combined, CombinedTerm, FitWarning, ReadOff};
 pub use compare::{compare, TermComparison};

@@ -297,6 +297,21 @@ fn analyze_refuses_bad_fit_flags() {
     }
 }
 
+/// `imunoise simulate` of `spec` into `dir`, then `analyze` of the recording on the CPU into
+/// `dir/out`: its stderr and report.json.
+fn simulate_and_analyze(dir: &std::path::Path, spec: &Value) -> (String, Value) {
+    std::fs::write(dir.join("spec.json"), spec.to_string()).unwrap();
+    run_ok(&["simulate", "--spec", "spec.json", "-o", "sim.arrow"], dir);
+    let out = run_ok(
+        &["analyze", "sim.arrow", "-o", "out", "--backend", "cpu"],
+        dir,
+    );
+    let report =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("out/report.json")).unwrap())
+            .unwrap();
+    (String::from_utf8_lossy(&out.stderr).into_owned(), report)
+}
+
 /// Defect: the residual loop stopped after 8 effects without a word, so a record with more lines
 /// than that was reported as explained. Ten strong lines: eight are added, and the limit is a
 /// warning in report.json, summary.md and on stderr.
@@ -312,19 +327,7 @@ fn a_loop_that_reaches_its_limit_says_so() {
         "channels": [{ "name": "gyro_x", "sensor": "gyro",
             "noise": { "n": 4.4e-5, "b": 1.5e-5 }, "sinusoids": lines }]
     });
-    std::fs::write(dir.path().join("spec.json"), spec.to_string()).unwrap();
-    run_ok(
-        &["simulate", "--spec", "spec.json", "-o", "lines.arrow"],
-        dir.path(),
-    );
-    let out = run_ok(
-        &["analyze", "lines.arrow", "-o", "out", "--backend", "cpu"],
-        dir.path(),
-    );
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    let report: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/report.json")).unwrap())
-            .unwrap();
+    let (stderr, report) = simulate_and_analyze(dir.path(), &spec);
     let channel = &report["files"][0]["analysis"][0];
     let steps = channel["residual_loop"]["steps"].as_array().unwrap();
     assert_eq!(steps.len(), 8, "{stderr}");
@@ -354,19 +357,7 @@ fn a_rival_model_is_reported_everywhere() {
             "noise": { "n": 4.3633e-5, "b": 1.4544e-5, "k": 1.616e-6 },
             "gauss_markov": [{ "sigma": 1e-4, "tc_s": 60.0 }] }]
     });
-    std::fs::write(dir.path().join("spec.json"), spec.to_string()).unwrap();
-    run_ok(
-        &["simulate", "--spec", "spec.json", "-o", "gm.arrow"],
-        dir.path(),
-    );
-    let out = run_ok(
-        &["analyze", "gm.arrow", "-o", "out", "--backend", "cpu"],
-        dir.path(),
-    );
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    let report: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/report.json")).unwrap())
-            .unwrap();
+    let (stderr, report) = simulate_and_analyze(dir.path(), &spec);
     crate::schema::matches_schema(&report).unwrap();
     let channel = &report["files"][0]["analysis"][0];
     let rival = &channel["residual_loop"]["rival"];

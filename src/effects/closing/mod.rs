@@ -199,7 +199,7 @@ pub struct Rival {
 impl Rival {
     /// The rival's share of the two models' total weight.
     pub fn share(&self) -> f64 {
-        self.weight / (1.0 + self.weight)
+        crate::model::rival_share(self.weight)
     }
 }
 
