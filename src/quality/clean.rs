@@ -31,6 +31,18 @@ impl SampleChunk {
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
+
+    /// Appends `later`'s samples (the same channels, in the same order) after this chunk's; an
+    /// empty chunk takes `later`'s buffers as they are.
+    pub fn append(&mut self, later: SampleChunk) {
+        if self.is_empty() {
+            *self = later;
+            return;
+        }
+        for (dst, src) in self.channels.iter_mut().zip(later.channels) {
+            dst.extend_from_slice(&src);
+        }
+    }
 }
 
 /// Interpolation state of one channel.
