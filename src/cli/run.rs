@@ -193,6 +193,16 @@ pub fn run(job: &Job) -> i32 {
                     for note in &r.recording.notes {
                         bar.line(&format!("note  {}: {note}", path.display()));
                     }
+                    for c in &r.quality.channels {
+                        for v in &c.verdicts {
+                            bar.line(&format!(
+                                "quality {} {}: {}",
+                                path.display(),
+                                c.name,
+                                v.describe()
+                            ));
+                        }
+                    }
                 }
                 for a in r.analysis.iter().flatten() {
                     if let (Some(b), false) = (&a.bandwidth, job.output.quiet) {

@@ -516,8 +516,22 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
                 String::new()
             }
         );
+        // Pending counts the inputs of shards that have run; a shard not run yet lists none.
+        let missing = if fleet.shards_missing.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ", shards not run yet: {}",
+                fleet
+                    .shards_missing
+                    .iter()
+                    .map(|k| format!("{k}/{}", fleet.shards))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        };
         eprintln!(
-            "fleet: {} files, {} channels, {flagged} flagged, {} pending; {} and {}",
+            "fleet: {} files, {} channels, {flagged} flagged, {} pending{missing}; {} and {}",
             fleet.files,
             rows.iter()
                 .filter(|r| r.record.status == Status::Ok)

@@ -289,6 +289,7 @@ fn process(
             &FileProgress { observer, input },
         ) {
             Ok(result) => {
+                notes.extend(result.quality.unit_notes());
                 let records = ChannelRecord::from_result(input, &result);
                 let plot = match cfg.plots {
                     PlotPolicy::None => false,

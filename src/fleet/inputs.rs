@@ -111,19 +111,19 @@ pub fn read_list(list: &Path) -> Result<Vec<PathBuf>, ScreenError> {
 }
 
 /// The inputs named by `args` (folders or files), in order; `exclude` is a folder never entered
-/// (the output folder). An argument that does not exist is an error naming it.
+/// (the output folder). An argument that does not exist is an input like any file, whose
+/// analysis fails with the reader's error (one missing file in a list does not stop the screen);
+/// a folder that cannot be read is an error naming it.
 pub fn collect_inputs(args: &[PathBuf], exclude: Option<&Path>) -> Result<Vec<Input>, ScreenError> {
     let exclude = exclude.and_then(|p| p.canonicalize().ok());
     // (root index, path, relative path)
     let mut found: Vec<(usize, PathBuf, String)> = Vec::new();
     let mut seen = HashSet::new();
     for (root_index, arg) in args.iter().enumerate() {
-        let meta = std::fs::metadata(arg).map_err(|e| ScreenError::Input {
-            path: arg.clone(),
-            message: e.to_string(),
-        })?;
         let mut here = Vec::new();
-        if meta.is_dir() {
+        // An argument that cannot be read (gone since a list was made, mistyped) is taken as a
+        // file: its row in the results carries the reader's error, and the others still run.
+        if std::fs::metadata(arg).is_ok_and(|m| m.is_dir()) {
             walk(arg, arg, exclude.as_deref(), &mut here)?;
         } else {
             let name = arg
@@ -159,22 +159,33 @@ pub fn collect_inputs(args: &[PathBuf], exclude: Option<&Path>) -> Result<Vec<In
             _ => name.to_string(),
         }
     };
+    // The relative path without its extension, where it has one.
+    let without = |rel: &str| -> String {
+        match rel.rsplit_once('.') {
+            Some((w, _)) if !w.ends_with('/') && !w.is_empty() => w.to_string(),
+            _ => rel.to_string(),
+        }
+    };
     let mut stem_count: HashMap<String, usize> = HashMap::new();
+    let mut without_count: HashMap<String, usize> = HashMap::new();
     for (_, _, rel) in &found {
         *stem_count.entry(stem(rel)).or_default() += 1;
+        *without_count.entry(without(rel)).or_default() += 1;
     }
     Ok(found
         .into_iter()
         .zip(hashes)
         .map(|((_, path, rel), hash)| {
             let s = stem(&rel);
-            let sensor = if stem_count[&s] > 1 {
-                match rel.rsplit_once('.') {
-                    Some((without, _)) if !without.ends_with('/') => without.to_string(),
-                    _ => rel.clone(),
-                }
-            } else {
+            // The stem; where stems repeat, the path without extension; where that repeats too
+            // (`imu.csv` beside `imu.parquet`), the whole relative path.
+            let w = without(&rel);
+            let sensor = if stem_count[&s] == 1 {
                 s.clone()
+            } else if without_count[&w] == 1 {
+                w
+            } else {
+                rel.clone()
             };
             Input {
                 key: format!("{}-{hash:016x}", sanitize(&s)),
@@ -307,7 +318,13 @@ mod tests {
     #[test]
     fn shared_stems_get_their_folder_and_the_output_folder_is_skipped() {
         let dir = tempfile::tempdir().unwrap();
-        for name in ["r1/imu.mcap", "r2/imu.mcap", "out/results/part-x.parquet"] {
+        for name in [
+            "r1/imu.mcap",
+            "r2/imu.mcap",
+            "r3/imu.csv",
+            "r3/imu.parquet",
+            "out/results/part-x.parquet",
+        ] {
             let p = dir.path().join(name);
             std::fs::create_dir_all(p.parent().unwrap()).unwrap();
             std::fs::write(&p, "x").unwrap();
@@ -315,7 +332,24 @@ mod tests {
         let inputs =
             collect_inputs(&[dir.path().to_path_buf()], Some(&dir.path().join("out"))).unwrap();
         let sensors: Vec<&str> = inputs.iter().map(|i| i.sensor.as_str()).collect();
-        assert_eq!(sensors, ["r1/imu", "r2/imu"]);
+        // The same stem in one folder: the extension tells them apart.
+        assert_eq!(
+            sensors,
+            ["r1/imu", "r2/imu", "r3/imu.csv", "r3/imu.parquet"]
+        );
         assert_ne!(inputs[0].key, inputs[1].key);
+        assert_ne!(inputs[2].key, inputs[3].key);
+    }
+
+    #[test]
+    fn a_missing_argument_is_an_input_whose_reading_fails_later() {
+        let dir = tempfile::tempdir().unwrap();
+        let there = dir.path().join("a.arrow");
+        std::fs::write(&there, "x").unwrap();
+        let gone = dir.path().join("gone.arrow");
+        let inputs = collect_inputs(&[there, gone.clone()], None).unwrap();
+        assert_eq!(inputs.len(), 2);
+        assert_eq!(inputs[1].path, gone);
+        assert_eq!(inputs[1].sensor, "gone");
     }
 }

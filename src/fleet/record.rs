@@ -7,7 +7,7 @@
 //! fleet table lists it.
 
 use crate::analysis::ChannelAnalysis;
-use crate::model::{Domain, NoiseFit, Sensor, Term};
+use crate::model::{Sensor, Term};
 use crate::pipeline::FileResult;
 use crate::report::{effect_line, EffectUnits};
 
@@ -143,6 +143,7 @@ impl ChannelRecord {
     pub fn from_result(input: &Input, r: &FileResult) -> Vec<ChannelRecord> {
         let mut file_notes: Vec<String> = r.recording.notes.clone();
         file_notes.extend(r.backend_notes.iter().cloned());
+        file_notes.extend(r.quality.unit_notes());
         r.recording
             .channels
             .iter()
@@ -199,7 +200,7 @@ fn fill_analysis(rec: &mut ChannelRecord, a: &ChannelAnalysis, units: &EffectUni
                 slot.hi = Some(c.hi);
                 slot.ambiguous = c.ambiguous_with.is_some();
             }
-            None => slot.upper = upper_limit(a.allan_fit(), a.spectrum_fit(), term),
+            None => slot.upper = crate::model::upper_limit(a.allan_fit(), a.spectrum_fit(), term),
         }
     }
     if let Some(l) = &a.residual_loop {
@@ -215,30 +216,4 @@ fn fill_analysis(rec: &mut ChannelRecord, a: &ChannelAnalysis, units: &EffectUni
             rec.warnings.push(format!("{domain} fit failed: {e}"));
         }
     }
-}
-
-/// The largest value of `term` the fits allow when the combined estimate has none: over the fits,
-/// the upper end of a kept estimate's interval (a fit that kept it ambiguously) or the fit's
-/// upper limit; the larger of the two fits, so that a pass on it holds for both. The spectrum's
-/// bound on a rate ramp is left out: its lowest band is above the drift (see
-/// [`crate::model::combine`]).
-pub fn upper_limit(
-    allan: Option<&NoiseFit>,
-    spectrum: Option<&NoiseFit>,
-    term: Term,
-) -> Option<f64> {
-    [allan, spectrum]
-        .into_iter()
-        .flatten()
-        .filter(|f| !(term == Term::RateRamp && f.domain == Domain::Spectrum))
-        .filter_map(|f| {
-            f.get(term).map(|e| e.hi).or_else(|| {
-                f.upper_limits
-                    .iter()
-                    .find(|u| u.term == term)
-                    .map(|u| u.upper)
-            })
-        })
-        .filter(|u| u.is_finite())
-        .reduce(f64::max)
 }

@@ -254,6 +254,31 @@ pub fn markdown(s: &FleetStepSummary, title: &str) -> String {
         }
     }
 
+    // Channels left out for want of a unit are not rows; every row of their file says so.
+    let mut unitless: Vec<(String, String)> = ok
+        .iter()
+        .flat_map(|r| {
+            r.record
+                .warnings
+                .iter()
+                .filter(|w| w.ends_with(crate::quality::NO_UNIT_TEXT))
+                .map(|w| (cell(&r.record.sensor), cell(w)))
+        })
+        .collect();
+    unitless.sort();
+    unitless.dedup();
+    if !unitless.is_empty() {
+        let _ = writeln!(
+            md,
+            "\n## Channels not analysed\n\nNo unit in the file, so not analysed as gyro or \
+             accelerometer channels (their sensors' other channels are).\n\n\
+             | sensor | channel and reason |\n|---|---|"
+        );
+        for (sensor, line) in unitless {
+            let _ = writeln!(md, "| {sensor} | {line} |");
+        }
+    }
+
     let undecided: Vec<(&FleetRow, Term)> = ok
         .iter()
         .flat_map(|r| {
@@ -302,12 +327,18 @@ pub fn markdown(s: &FleetStepSummary, title: &str) -> String {
             "\n## Errors\n\n| sensor | path | error |\n|---|---|---|"
         );
         for r in &errors {
+            // The readers' errors name the file; the path column already does.
+            let error = r.record.error.as_deref().unwrap_or("");
+            let error = error
+                .strip_prefix(r.record.path.as_str())
+                .and_then(|e| e.strip_prefix(": "))
+                .unwrap_or(error);
             let _ = writeln!(
                 md,
                 "| {} | {} | {} |",
                 cell(&r.record.sensor),
                 cell(&r.record.path),
-                cell(r.record.error.as_deref().unwrap_or(""))
+                cell(error)
             );
         }
     }

@@ -557,6 +557,32 @@ fn allan_bound(dev: &Deviations, term: Term) -> Option<(f64, f64)> {
     ))
 }
 
+/// The largest value of `term` the fits allow when the combined estimate has none: over the fits,
+/// the upper end of a kept estimate's interval (a fit that kept it ambiguously) or the fit's
+/// upper limit; the larger of the two fits, so that a pass on it holds for both. The spectrum's
+/// bound on a rate ramp is left out: its lowest band is above the drift (see
+/// [`crate::model::combine`]).
+pub fn upper_limit(
+    allan: Option<&NoiseFit>,
+    spectrum: Option<&NoiseFit>,
+    term: Term,
+) -> Option<f64> {
+    [allan, spectrum]
+        .into_iter()
+        .flatten()
+        .filter(|f| !(term == Term::RateRamp && f.domain == Domain::Spectrum))
+        .filter_map(|f| {
+            f.get(term).map(|e| e.hi).or_else(|| {
+                f.upper_limits
+                    .iter()
+                    .find(|u| u.term == term)
+                    .map(|u| u.upper)
+            })
+        })
+        .filter(|u| u.is_finite())
+        .reduce(f64::max)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -163,6 +163,17 @@ impl QualityReport {
             .find(|c| c.name == channel)
             .is_none_or(|c| c.verdicts.iter().all(ChannelVerdict::analysable))
     }
+
+    /// One line per channel left out of the noise analysis for want of a unit (`name: why`): a
+    /// batch's per-channel rows cover only gyro and accelerometer channels, so without this line
+    /// an axis whose unit is missing would simply not be there.
+    pub fn unit_notes(&self) -> Vec<String> {
+        self.channels
+            .iter()
+            .filter(|c| c.verdicts.contains(&ChannelVerdict::NoUnit))
+            .map(|c| format!("{}: {}", c.name, ChannelVerdict::NoUnit.describe()))
+            .collect()
+    }
 }
 
 /// Runs of identical samples at least this long, in a channel that otherwise spans many quantisation
@@ -234,12 +245,15 @@ impl ChannelVerdict {
                      at the maximum)"
                 )
             }
-            ChannelVerdict::NoUnit => {
-                "no unit: analysed as aux, not as gyro or accel (give --unit COLUMN=UNIT)".into()
-            }
+            ChannelVerdict::NoUnit => NO_UNIT_TEXT.into(),
         }
     }
 }
+
+/// What [`ChannelVerdict::NoUnit`] says of a channel; batch outputs find the channels left out
+/// of the noise analysis by it.
+pub const NO_UNIT_TEXT: &str =
+    "no unit: analysed as aux, not as gyro or accel (give --unit COLUMN=UNIT)";
 
 /// The verdicts for one channel from its summary.
 pub fn verdicts(spec: &ChannelSpec, summary: &ChannelSummary) -> Vec<ChannelVerdict> {

@@ -121,6 +121,9 @@ fn file_section(out: &mut String, r: &FileResult) {
         ));
     }
     for c in &q.channels {
+        for v in &c.verdicts {
+            notes.push(format!("{}: {}", c.name, v.describe()));
+        }
         if c.nonfinite_samples > 0 {
             notes.push(format!(
                 "{}: {} (policy {})",
@@ -129,7 +132,11 @@ fn file_section(out: &mut String, r: &FileResult) {
                 q.nonfinite_policy
             ));
         }
-        if c.summary.possibly_saturated {
+        let saturation_said = c
+            .verdicts
+            .iter()
+            .any(|v| matches!(v, crate::quality::ChannelVerdict::PossiblySaturated { .. }));
+        if c.summary.possibly_saturated && !saturation_said {
             notes.push(format!("{}: possibly saturated", c.name));
         }
     }
@@ -148,8 +155,8 @@ fn file_section(out: &mut String, r: &FileResult) {
     }
     let _ = writeln!(
         out,
-        "\nIntervals are {} two-sided; a term is listed as not significant when the information \
-         criterion did not admit it (its upper limit is in report.json).",
+        "\nIntervals are {} two-sided; a term is listed as not significant, with the largest \
+         value the fits allow, when the information criterion admitted it in neither fit.",
         confidence_text(analysis)
     );
     combined_section(out, analysis);
@@ -238,6 +245,34 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
                 sig4(u1.from_si(t.lo)),
                 sig4(u1.from_si(t.hi)),
                 if t.hull { " (both fits)" } else { "" },
+                read.map_or("–".into(), |r| format!(
+                    "{} {} at τ = {} s",
+                    sig4(u1.from_si(r.value)),
+                    u1.pretty(),
+                    sig4(r.tau_s)
+                )),
+                read.filter(|r| r.slope.is_finite())
+                    .map_or("–".into(), |r| format!("{:+.2}", r.slope)),
+                unit = u1.pretty(),
+            );
+        }
+        // The terms neither fit admitted: not significant, with the largest value the fits allow.
+        for term in Term::ALL {
+            if a.combined.get(term).is_some() {
+                continue;
+            }
+            let Some(upper) = crate::model::upper_limit(a.allan_fit(), a.spectrum_fit(), term)
+            else {
+                continue;
+            };
+            let [_, u1, _] = units_of(a.sensor, term);
+            let read = a.combined.read_offs.iter().find(|r| r.term == term);
+            let _ = writeln!(
+                out,
+                "| {} | {} | not significant | ≤ {} {unit} | – | {} | {} |",
+                a.channel,
+                term.symbol(),
+                sig4(u1.from_si(upper)),
                 read.map_or("–".into(), |r| format!(
                     "{} {} at τ = {} s",
                     sig4(u1.from_si(r.value)),

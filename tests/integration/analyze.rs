@@ -363,7 +363,9 @@ fn a_rival_model_is_reported_everywhere() {
     let rival = &channel["residual_loop"]["rival"];
     assert_eq!(rival["effect"]["kind"], "gauss_markov", "{rival}");
     let weight = rival["weight"].as_f64().unwrap();
-    assert!(weight / (1.0 + weight) >= 0.1, "{rival}");
+    let share = rival["share"].as_f64().unwrap();
+    assert!((share - weight / (1.0 + weight)).abs() < 1e-12, "{rival}");
+    assert!(share >= 0.1, "{rival}");
     let warnings = channel["combined"]["warnings"].as_array().unwrap();
     assert!(
         warnings.iter().any(|w| w["kind"] == "rival_model"),

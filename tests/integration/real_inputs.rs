@@ -465,3 +465,57 @@ fn a_model_restricted_to_terms_that_cannot_fit_is_warned_about() {
         );
     }
 }
+
+/// A gyro axis whose unit is missing is left out of the noise analysis (it is not a gyro without
+/// one), and every batch output says so: `analyze`'s stderr and summary.md, `screen`'s stderr
+/// and fleet summary. Before, the axis simply was not there.
+#[test]
+fn an_axis_without_a_unit_is_named_wherever_it_is_left_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let fleet = dir.path().join("fleet");
+    std::fs::create_dir(&fleet).unwrap();
+    let p = fleet.join("imu.csv");
+    let scaled = |seed| noise(20_000, seed).iter().map(|v| 1e-3 * v).collect();
+    write_csv(
+        &p,
+        &[("gyro_x", Some("rad/s")), ("gyro_y", None)],
+        &[scaled(6), scaled(7)],
+    );
+    let common = [
+        "--rate",
+        "100",
+        "--nperseg",
+        "512",
+        "--no-loop",
+        "--backend",
+        "cpu",
+    ];
+    let mut args = vec!["analyze", p.to_str().unwrap(), "-o", "out"];
+    args.extend(common);
+    let out = imunoise(&args, dir.path());
+    let e = stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    assert!(
+        e.lines()
+            .any(|l| l.starts_with("quality ") && l.contains("gyro_y: no unit")),
+        "{e}"
+    );
+    let summary = std::fs::read_to_string(dir.path().join("out/summary.md")).unwrap();
+    assert!(summary.contains("gyro_y: no unit"), "{summary}");
+
+    let mut args = vec!["screen", "fleet", "-o", "screened"];
+    args.extend(common);
+    let out = imunoise(&args, dir.path());
+    let e = stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    assert!(
+        e.lines()
+            .any(|l| l.starts_with("note ") && l.contains("gyro_y: no unit")),
+        "{e}"
+    );
+    let fleet_summary = std::fs::read_to_string(dir.path().join("screened/summary.md")).unwrap();
+    assert!(
+        fleet_summary.contains("## Channels not analysed") && fleet_summary.contains("gyro_y"),
+        "{fleet_summary}"
+    );
+}

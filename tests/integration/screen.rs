@@ -361,8 +361,8 @@ fn shards_give_the_single_runs_table_and_reruns_recompute_only_what_changed() {
     assert!(!column_text(&table, "sensor").contains(&"imu08".to_string()));
 }
 
-/// A corrupt, an empty and a mislabelled file among five good ones (given through --files-from):
-/// each is a row with its error, the good ones are written, the exit code is 1; the rerun skips
+/// A corrupt, an empty and a mislabelled file among five good ones, and a listed file that no
+/// longer exists (given through --files-from): each is a row with its error, the good ones are written, the exit code is 1; the rerun skips
 /// the error results too and still exits 1.
 #[test]
 fn bad_files_are_error_rows_and_do_not_stop_the_batch() {
@@ -375,7 +375,11 @@ fn bad_files_are_error_rows_and_do_not_stop_the_batch() {
     std::fs::write(fleet.join("corrupt.arrow"), b"ARROW1\0\0 not really").unwrap();
     std::fs::write(fleet.join("empty.csv"), b"").unwrap();
     std::fs::write(fleet.join("mislabelled.parquet"), b"time,gyro_x\n0,1\n").unwrap();
-    std::fs::write(tmp.path().join("list.txt"), "# the fleet\nfleet\n").unwrap();
+    std::fs::write(
+        tmp.path().join("list.txt"),
+        "# the fleet\nfleet\nfleet/gone.arrow\n",
+    )
+    .unwrap();
     let args = [
         "screen",
         "--files-from",
@@ -389,7 +393,12 @@ fn bad_files_are_error_rows_and_do_not_stop_the_batch() {
     let o = imunoise(&args, tmp.path());
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let err = stderr(&o);
-    for bad in ["corrupt.arrow", "empty.csv", "mislabelled.parquet"] {
+    for bad in [
+        "corrupt.arrow",
+        "empty.csv",
+        "mislabelled.parquet",
+        "gone.arrow",
+    ] {
         assert!(
             err.lines()
                 .any(|l| l.starts_with("error ") && l.contains(bad)),
@@ -398,7 +407,7 @@ fn bad_files_are_error_rows_and_do_not_stop_the_batch() {
     }
     assert_eq!(lines_starting(&o, "done  "), 5, "{err}");
     let out = tmp.path().join("out");
-    assert_eq!(parts(&out).len(), 8);
+    assert_eq!(parts(&out).len(), 9);
     let table = read_batches(&out.join("fleet.parquet"));
     let status = column_text(&table, "status");
     let sensors = column_text(&table, "sensor");
@@ -408,7 +417,7 @@ fn bad_files_are_error_rows_and_do_not_stop_the_batch() {
         .filter(|(_, s)| *s == "error")
         .map(|(s, _)| s.as_str())
         .collect();
-    assert_eq!(errors, ["corrupt", "empty", "mislabelled"]);
+    assert_eq!(errors, ["corrupt", "empty", "gone", "mislabelled"]);
     assert_eq!(status.iter().filter(|s| *s == "ok").count(), 15);
     assert!(column_text(&table, "error")
         .iter()

@@ -193,13 +193,16 @@ pub struct Rival {
     pub effect: Effect,
     pub delta_bic: f64,
     pub weight: f64,
+    /// The rival's share of the two models' total weight, weight/(1 + weight): the figure the
+    /// warning and summary.md give ("weighing 29 % of the total").
+    pub share: f64,
     pub evidence: String,
 }
 
 impl Rival {
     /// The rival's share of the two models' total weight.
     pub fn share(&self) -> f64 {
-        crate::model::rival_share(self.weight)
+        self.share
     }
 }
 
@@ -577,6 +580,7 @@ fn run_loop(
             effect: c.effect,
             delta_bic: c.delta_bic,
             weight,
+            share: crate::model::rival_share(weight),
             evidence: c.evidence,
         })
     });

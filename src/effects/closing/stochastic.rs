@@ -401,7 +401,17 @@ pub(super) fn gauss_markov_candidate(
         .map(diagnose)
         .and_then(|d| d.local)
         .map_or(String::new(), |l| {
-            format!("; largest spectrum residual {:.3}–{:.3} Hz", l.x_lo, l.x_hi)
+            // Three significant digits; one band (or two that print alike) is a frequency.
+            let hz = |x: f64| {
+                let decimals = (2 - x.abs().log10().floor() as i32).clamp(0, 12) as usize;
+                format!("{x:.decimals$}")
+            };
+            let (lo, hi) = (hz(l.x_lo), hz(l.x_hi));
+            if lo == hi {
+                format!("; largest spectrum residual at {lo} Hz")
+            } else {
+                format!("; largest spectrum residual {lo}–{hi} Hz")
+            }
         });
     let (ds, da) = (best.ds, best.da);
     Some(Candidate {
