@@ -212,6 +212,22 @@ fn file_section(out: &mut String, r: &FileResult) {
 
 /// The combined coefficients first (one answer per term, both display units), the IEEE read-offs
 /// beside them, the sensor bandwidth and every warning.
+/// The read-off and the slope there, as the last two cells of a coefficient row.
+fn read_off_cells(read: Option<&crate::model::ReadOff>, u: crate::model::CoefUnit) -> String {
+    let value = read.map_or("–".into(), |r| {
+        format!(
+            "{} {} at τ = {} s",
+            sig4(u.from_si(r.value)),
+            u.pretty(),
+            sig4(r.tau_s)
+        )
+    });
+    let slope = read
+        .filter(|r| r.slope.is_finite())
+        .map_or("–".into(), |r| format!("{:+.2}", r.slope));
+    format!("{value} | {slope}")
+}
+
 fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
     let _ = writeln!(
         out,
@@ -238,21 +254,14 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
             });
             let _ = writeln!(
                 out,
-                "| {} | {} | {} {unit} | [{}, {}] {unit}{} | {source}{ambiguous} | {} | {} |",
+                "| {} | {} | {} {unit} | [{}, {}] {unit}{} | {source}{ambiguous} | {} |",
                 a.channel,
                 t.term.symbol(),
                 sig4(u1.from_si(t.value)),
                 sig4(u1.from_si(t.lo)),
                 sig4(u1.from_si(t.hi)),
                 if t.hull { " (both fits)" } else { "" },
-                read.map_or("–".into(), |r| format!(
-                    "{} {} at τ = {} s",
-                    sig4(u1.from_si(r.value)),
-                    u1.pretty(),
-                    sig4(r.tau_s)
-                )),
-                read.filter(|r| r.slope.is_finite())
-                    .map_or("–".into(), |r| format!("{:+.2}", r.slope)),
+                read_off_cells(read, u1),
                 unit = u1.pretty(),
             );
         }
@@ -269,18 +278,11 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
             let read = a.combined.read_offs.iter().find(|r| r.term == term);
             let _ = writeln!(
                 out,
-                "| {} | {} | not significant | ≤ {} {unit} | – | {} | {} |",
+                "| {} | {} | not significant | ≤ {} {unit} | – | {} |",
                 a.channel,
                 term.symbol(),
                 sig4(u1.from_si(upper)),
-                read.map_or("–".into(), |r| format!(
-                    "{} {} at τ = {} s",
-                    sig4(u1.from_si(r.value)),
-                    u1.pretty(),
-                    sig4(r.tau_s)
-                )),
-                read.filter(|r| r.slope.is_finite())
-                    .map_or("–".into(), |r| format!("{:+.2}", r.slope)),
+                read_off_cells(read, u1),
                 unit = u1.pretty(),
             );
         }

@@ -492,27 +492,25 @@ fn an_axis_without_a_unit_is_named_wherever_it_is_left_out() {
     ];
     let mut args = vec!["analyze", p.to_str().unwrap(), "-o", "out"];
     args.extend(common);
-    let out = imunoise(&args, dir.path());
-    let e = stderr(&out);
-    assert_eq!(out.status.code(), Some(0), "{e}");
-    assert!(
-        e.lines()
-            .any(|l| l.starts_with("quality ") && l.contains("gyro_y: no unit")),
-        "{e}"
-    );
+    // Runs `args`, which must succeed and say on stderr, on a line starting with `prefix`, that
+    // gyro_y has no unit.
+    let run_and_check = |args: &[&str], prefix: &str| {
+        let out = imunoise(args, dir.path());
+        let e = stderr(&out);
+        assert_eq!(out.status.code(), Some(0), "{e}");
+        assert!(
+            e.lines()
+                .any(|l| l.starts_with(prefix) && l.contains("gyro_y: no unit")),
+            "{e}"
+        );
+    };
+    run_and_check(&args, "quality ");
     let summary = std::fs::read_to_string(dir.path().join("out/summary.md")).unwrap();
     assert!(summary.contains("gyro_y: no unit"), "{summary}");
 
     let mut args = vec!["screen", "fleet", "-o", "screened"];
     args.extend(common);
-    let out = imunoise(&args, dir.path());
-    let e = stderr(&out);
-    assert_eq!(out.status.code(), Some(0), "{e}");
-    assert!(
-        e.lines()
-            .any(|l| l.starts_with("note ") && l.contains("gyro_y: no unit")),
-        "{e}"
-    );
+    run_and_check(&args, "note ");
     let fleet_summary = std::fs::read_to_string(dir.path().join("screened/summary.md")).unwrap();
     assert!(
         fleet_summary.contains("## Channels not analysed") && fleet_summary.contains("gyro_y"),
