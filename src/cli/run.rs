@@ -97,6 +97,8 @@ fn bar_style() -> ProgressStyle {
         .unwrap_or_else(|_| ProgressStyle::default_spinner())
 }
 
+/// The per-file line of stderr: size, rate, duration, gaps and non-finite samples. Channel verdicts
+/// (saturation among them) follow on lines of their own.
 fn summary_line(r: &FileResult) -> String {
     let q = &r.quality;
     let mut notes = Vec::new();
@@ -114,9 +116,6 @@ fn summary_line(r: &FileResult) -> String {
             count(nonfinite, "non-finite sample"),
             q.nonfinite_policy
         ));
-    }
-    for c in q.channels.iter().filter(|c| c.summary.possibly_saturated) {
-        notes.push(format!("{} possibly saturated", c.name));
     }
     let notes = if notes.is_empty() {
         String::new()

@@ -516,20 +516,9 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
                 String::new()
             }
         );
-        // Pending counts the inputs of shards that have run; a shard not run yet lists none.
-        let missing = if fleet.shards_missing.is_empty() {
-            String::new()
-        } else {
-            format!(
-                ", shards not run yet: {}",
-                fleet
-                    .shards_missing
-                    .iter()
-                    .map(|k| format!("{k}/{}", fleet.shards))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        };
+        let missing = fleet
+            .shards_not_run()
+            .map_or(String::new(), |k| format!(", shards not run yet: {k}"));
         eprintln!(
             "fleet: {} files, {} channels, {flagged} flagged, {} pending{missing}; {} and {}",
             fleet.files,

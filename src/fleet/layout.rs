@@ -213,6 +213,20 @@ pub struct FleetStepSummary {
     pub files: usize,
 }
 
+impl FleetStepSummary {
+    /// The shards with no manifest yet as `K/N, …` (`None`: every shard has run): their inputs
+    /// are not among the pending ones, which only a shard's manifest lists.
+    pub fn shards_not_run(&self) -> Option<String> {
+        (!self.shards_missing.is_empty()).then(|| {
+            self.shards_missing
+                .iter()
+                .map(|k| format!("{k}/{}", self.shards))
+                .collect::<Vec<_>>()
+                .join(", ")
+        })
+    }
+}
+
 /// Reads the results of the run's shards (see the module docs for what counts), judges them and
 /// writes `fleet.parquet`, `summary.md` and `fleet.html`.
 pub fn fleet_step(

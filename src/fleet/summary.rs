@@ -95,18 +95,8 @@ pub fn markdown(s: &FleetStepSummary, title: &str) -> String {
         md,
         "| pending (not computed yet) | {}{} |",
         s.pending.len(),
-        if s.shards_missing.is_empty() {
-            String::new()
-        } else {
-            format!(
-                "; shards not run yet: {}",
-                s.shards_missing
-                    .iter()
-                    .map(|k| format!("{k}/{}", s.shards))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        }
+        s.shards_not_run()
+            .map_or(String::new(), |k| format!("; shards not run yet: {k}"))
     );
     if !s.stale.is_empty() {
         let _ = writeln!(

@@ -132,13 +132,6 @@ fn file_section(out: &mut String, r: &FileResult) {
                 q.nonfinite_policy
             ));
         }
-        let saturation_said = c
-            .verdicts
-            .iter()
-            .any(|v| matches!(v, crate::quality::ChannelVerdict::PossiblySaturated { .. }));
-        if c.summary.possibly_saturated && !saturation_said {
-            notes.push(format!("{}: possibly saturated", c.name));
-        }
     }
     notes.extend(r.recording.notes.iter().cloned());
     notes.extend(r.backend_notes.iter().cloned());
@@ -210,8 +203,6 @@ fn file_section(out: &mut String, r: &FileResult) {
     }
 }
 
-/// The combined coefficients first (one answer per term, both display units), the IEEE read-offs
-/// beside them, the sensor bandwidth and every warning.
 /// The read-off and the slope there, as the last two cells of a coefficient row.
 fn read_off_cells(read: Option<&crate::model::ReadOff>, u: crate::model::CoefUnit) -> String {
     let value = read.map_or("–".into(), |r| {
@@ -228,6 +219,8 @@ fn read_off_cells(read: Option<&crate::model::ReadOff>, u: crate::model::CoefUni
     format!("{value} | {slope}")
 }
 
+/// The combined coefficients first (one answer per term, both display units), the IEEE read-offs
+/// beside them, the sensor bandwidth and every warning.
 fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
     let _ = writeln!(
         out,
@@ -566,7 +559,7 @@ fn loop_section(out: &mut String, recording: &Recording, analysis: &[ChannelAnal
         let rival = l.rival.as_ref().map_or(String::new(), |r| {
             format!(
                 " Not admitted, averaged into the coefficients as a rival at {:.0} % of the weight: {} (ΔBIC {:+.1}).",
-                100.0 * r.share(),
+                100.0 * r.share,
                 effect_line(&r.effect, &units),
                 r.delta_bic
             )

@@ -224,8 +224,5 @@ fn a_gauss_markov_process_too_long_to_admit_is_averaged_in_as_a_rival() {
     let named = o.report.warnings().iter().any(|w| {
         matches!(w, imunoise::model::FitWarning::RivalModel { effect, .. } if effect == "gauss_markov")
     });
-    assert_eq!(
-        named,
-        rival.share() >= imunoise::effects::RIVAL_WARNING_SHARE
-    );
+    assert_eq!(named, rival.share >= imunoise::effects::RIVAL_WARNING_SHARE);
 }

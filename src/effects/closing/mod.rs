@@ -200,9 +200,16 @@ pub struct Rival {
 }
 
 impl Rival {
-    /// The rival's share of the two models' total weight.
-    pub fn share(&self) -> f64 {
-        self.share
+    /// The rival of ΔBIC `delta_bic` against the final model, its weight and share derived from it.
+    fn new(effect: Effect, delta_bic: f64, evidence: String) -> Rival {
+        let weight = bic_weight(delta_bic);
+        Rival {
+            effect,
+            delta_bic,
+            weight,
+            share: crate::model::rival_share(weight),
+            evidence,
+        }
     }
 }
 
@@ -250,7 +257,7 @@ impl LoopReport {
         let rival = self
             .rival
             .as_ref()
-            .filter(|r| r.share() >= RIVAL_WARNING_SHARE);
+            .filter(|r| r.share >= RIVAL_WARNING_SHARE);
         let rival = rival.map(|r| FitWarning::RivalModel {
             effect: r.effect.kind().to_owned(),
             delta_bic: r.delta_bic,
@@ -568,21 +575,15 @@ fn run_loop(
             return None;
         };
         let (_, allan, spectrum) = *model;
-        let weight = bic_weight(c.delta_bic);
+        let rival = Rival::new(c.effect, c.delta_bic, c.evidence);
         let average = |fit: &mut Option<NoiseFit>, other: Option<NoiseFit>| {
             if let (Some(f), Some(o)) = (fit.as_mut(), other) {
-                *f = average_with_rival(f, &o, weight);
+                *f = average_with_rival(f, &o, rival.weight);
             }
         };
         average(&mut state.allan, allan);
         average(&mut state.spectrum, spectrum);
-        Some(Rival {
-            effect: c.effect,
-            delta_bic: c.delta_bic,
-            weight,
-            share: crate::model::rival_share(weight),
-            evidence: c.evidence,
-        })
+        Some(rival)
     });
     let report = LoopReport {
         bandwidth,
