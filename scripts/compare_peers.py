@@ -10,8 +10,9 @@ and prints wall time, the estimator's own time, peak resident memory and the rat
 computes 1 + 5 times in its process: the ratios use the fastest warm call, the first is printed
 beside it (scipy's Welch pays ≈1 s of one-time cost on its first call). imunoise is run 5 times
 (fastest wall and compute time, largest peak memory) as the release binary, end to end (read the file, screen it, estimate, write Arrow/JSON); its
-compute-only time is taken from the timings in its report.json (Welch: reading + screening + Welch,
-as they stream together; Allan: the estimator alone). The peers are timed on data already in memory
+compute-only time is taken from the timings in its report.json (Welch: the estimator's own time,
+welch_busy_s, its streamed updates plus finishing; beside it, reading + screening + Welch, as they
+stream together; Allan: the estimator alone). The peers are timed on data already in memory
 (loading excluded). Run it on an otherwise idle machine: both cores are used.
 
 Usage: cargo build --release && python3 scripts/compare_peers.py [--samples N] [--keep DIR]
@@ -108,12 +109,16 @@ def worker(kind, path, taus):
 
 
 def imunoise_compute_s(out_dir, kind):
-    """The estimator's own time from report.json. Welch streams while the file is read, so its time
-    includes reading and screening the file (read_s + welch_s), which the peers' time does not; the
-    Allan variance runs on the channel in memory (avar_s)."""
+    """The estimator's own time from report.json, and the time from the first byte read to the
+    estimate. Welch streams while the file is read: its own time is welch_busy_s (the updates on the
+    estimating thread while the reader thread goes on, plus finishing), and reading + screening +
+    Welch together take read_s + welch_s, which the peers' time does not include. The Allan variance
+    runs on the channel in memory (avar_s) after reading (read_s)."""
     doc = json.loads((out_dir / "report.json").read_text())
     t = doc["files"][0]["timings"]
-    return t["read_s"] + t["welch_s"] if kind == "welch" else t["avar_s"]
+    if kind == "welch":
+        return t["welch_busy_s"], t["read_s"] + t["welch_s"]
+    return t["avar_s"], t["read_s"] + t["avar_s"]
 
 
 def main():
@@ -145,7 +150,7 @@ def main():
         (f"OADEV {len(taus)} log-spaced taus", "oadev_log", ["avar", str(data), "--taus", tau_list]),
     ]
     print(f"{n} samples, f64 ({data.stat().st_size / 2**20:.0f} MiB file), {os.cpu_count()} cores; imunoise {BIN}")
-    print(f"{'task':34} {'tool':11} {'wall s':>8} {'compute s':>10} {'peak MiB':>9}")
+    print(f"{'task':34} {'tool':11} {'wall s':>8} {'compute s':>10} {'read+comp s':>12} {'peak MiB':>9}")
     backends = args.backends.split(",")
     for label, kind, cli in tasks:
         ours = {}
@@ -156,13 +161,14 @@ def main():
                 wall, rss, _ = run_measured(
                     [BIN, *cli, "-o", str(out_dir), "--format", "arrow,json", "--quiet", "--backend", backend]
                 )
-                runs.append((wall, rss, imunoise_compute_s(out_dir, kind)))
+                runs.append((wall, rss, *imunoise_compute_s(out_dir, kind)))
             wall = min(r[0] for r in runs)
             rss = max(r[1] for r in runs)
             compute = min(r[2] for r in runs)
-            ours[backend] = (wall, compute)
+            with_read = min(r[3] for r in runs)
+            ours[backend] = (wall, compute, with_read)
             name = "imunoise" if backends == ["cpu"] else f"imunoise {backend}"
-            print(f"{label if backend == backends[0] else '':34} {name:11} {wall:8.3f} {compute:10.3f} {rss:9.0f}")
+            print(f"{label if backend == backends[0] else '':34} {name:11} {wall:8.3f} {compute:10.3f} {with_read:12.3f} {rss:9.0f}")
         if args.no_peers:
             continue
         peer_cmd = [sys.executable, __file__, "--worker", kind, str(data), "--taus", json.dumps(taus)]
@@ -170,10 +176,11 @@ def main():
         measured = json.loads(p_out)
         peer, cold = measured["compute_s"], measured["cold_s"]
         peer_name = "scipy" if kind == "welch" else "allantools"
-        print(f"{'':34} {peer_name:11} {p_wall:8.3f} {peer:10.3f} {p_rss:9.0f}   (fastest warm call; first call {cold:.3f} s)")
-        for backend, (wall, compute) in ours.items():
+        print(f"{'':34} {peer_name:11} {p_wall:8.3f} {peer:10.3f} {'':12} {p_rss:9.0f}   (fastest warm call; first call {cold:.3f} s)")
+        for backend, (wall, compute, with_read) in ours.items():
             tag = "ratio" if len(ours) == 1 else f"ratio {backend}"
-            print(f"{'':34} {tag:11} {'':8} {peer / compute:9.1f}x (compute)  {peer / wall:.1f}x (imunoise end to end vs peer compute)")
+            print(f"{'':34} {tag:11} {'':8} {peer / compute:9.1f}x (compute)  {peer / with_read:.1f}x (read + compute)"
+                  f"  {peer / wall:.1f}x (imunoise end to end vs peer compute)")
     if not args.keep:
         import shutil
 

@@ -83,6 +83,29 @@ pub fn log_bin_resolving(
     out
 }
 
+/// How many times a likelihood that takes single neighbouring bins of `psd` as independent
+/// overstates their information: a run of M bins in the middle of the spectrum holds
+/// M·EDF(one bin)/EDF(run) times fewer independent values than it has bins (1.94 for a periodic
+/// Hann window without zero padding: neighbouring bins' powers correlate by 4/9). A parameter
+/// whose effect spreads over many such bins (a resonance's centre and width, over a half-power
+/// width of ~16 bins) has its profile likelihood's curvature overstated by about this factor; a
+/// band mean ([`BinnedPsd::dof`]) already accounts for it. 1 where the layout is not known.
+pub fn neighbour_redundancy(psd: &Psd) -> f64 {
+    const RUN: usize = 64;
+    let n = psd.freq_hz.len().min(psd.value.len());
+    let mid = n / 4;
+    if mid == 0 || mid + RUN >= n {
+        return 1.0;
+    }
+    let dof = band_dof(psd, &[(mid, mid), (mid, mid + RUN - 1)]);
+    let factor = RUN as f64 * dof[0] / dof[1];
+    if factor.is_finite() {
+        factor.max(1.0)
+    } else {
+        1.0
+    }
+}
+
 /// Runs of consecutive bins k ≥ 1 that share the band ⌊bins_per_decade·log10 f_k⌋, as inclusive
 /// index ranges; bins inside `fine` (lo, hi in Hz; NaN: none) each on their own. Bins at f ≤ 0
 /// (DC) are skipped.
@@ -168,6 +191,43 @@ mod tests {
         );
         let covered: usize = bands.iter().map(|(a, b)| b - a + 1).sum();
         assert_eq!(covered, 100);
+    }
+
+    /// The redundancy against the one measured on white noise: the variance of the sum of 64
+    /// neighbouring bins of a Welch spectrum over many records, divided by the sum of their
+    /// variances. Hann, 50 % overlap: 1.94 from the window alone; the overlap adds little.
+    #[test]
+    fn neighbour_redundancy_matches_white_noise() {
+        use crate::psd::{welch, WelchConfig};
+        use crate::sim::rng::Rng;
+        let cfg = WelchConfig::new(512);
+        let (records, len) = (400, 512 * 16);
+        let mut rng = Rng::new(20261126);
+        let (lo, hi) = (80, 144);
+        let mut sums = Vec::with_capacity(records);
+        let mut per_bin = vec![(0.0, 0.0); hi - lo];
+        let mut factor = 0.0;
+        for _ in 0..records {
+            let x = rng.gauss_vec(len);
+            let psd = welch(&x, 1.0, &cfg).unwrap();
+            factor = neighbour_redundancy(&psd);
+            sums.push(psd.value[lo..hi].iter().sum::<f64>());
+            for (acc, v) in per_bin.iter_mut().zip(&psd.value[lo..hi]) {
+                *acc = (acc.0 + v, acc.1 + v * v);
+            }
+        }
+        let r = records as f64;
+        let var = |s: f64, s2: f64| s2 / r - (s / r).powi(2);
+        let sum_mean = sums.iter().sum::<f64>() / r;
+        let var_sum = sums.iter().map(|s| (s - sum_mean).powi(2)).sum::<f64>() / r;
+        let sum_var: f64 = per_bin.iter().map(|&(s, s2)| var(s, s2)).sum();
+        let measured = var_sum / sum_var;
+        // 400 records: the ratio of two variance estimates scatters by about √(2/400) = 7 %.
+        assert!((1.8..2.1).contains(&factor), "computed {factor}");
+        assert!(
+            (measured / factor - 1.0).abs() < 0.2,
+            "measured {measured}, computed {factor}"
+        );
     }
 
     #[test]

@@ -46,7 +46,7 @@ pub(crate) use accumulator::check_chunk;
 pub use accumulator::WelchAccumulator;
 pub use detrend::Detrend;
 pub use error::PsdError;
-pub use logbin::{log_bin, log_bin_resolving, BinnedPsd};
+pub use logbin::{log_bin, log_bin_resolving, neighbour_redundancy, BinnedPsd};
 pub use median::{median_bias, median_efficiency, Average};
 pub use plan::{WelchConfig, WelchPlan, MAX_NFFT};
 pub use scaling::Scaling;

@@ -36,7 +36,9 @@ use crate::model::{
     average_with_rival, bic_weight, detect_bandwidth, fit_avar_with, fit_psd_with, Bandwidth,
     EffectEstimate, EffectShape, FitOptions, FitWarning, NoiseFit, Term, SELECTION_WINDOW,
 };
-use crate::psd::{log_bin, log_bin_resolving, welch, BinnedPsd, Psd, WelchConfig};
+use crate::psd::{
+    log_bin, log_bin_resolving, neighbour_redundancy, welch, BinnedPsd, Psd, WelchConfig,
+};
 
 use super::excursion::{
     excursion_under_model, remove_excursion, BoxSearch, Excursion, LevelChange,
