@@ -9,7 +9,7 @@
 
 use imunoise::avar::{compute, Confidence, Statistic, TauGrid};
 use imunoise::effects::{close_loop, AuxSeries, LoopConfig};
-use imunoise::model::{combine, CoefUnit, Coefficients, FitWarning, Term};
+use imunoise::model::{combine, rounding_warning, CoefUnit, Coefficients, FitWarning, Term};
 use imunoise::sim::{simulate, SimSpec};
 use serde_json::json;
 
@@ -82,6 +82,20 @@ struct Tally {
     warning_kinds: Vec<String>,
     found_expected: usize,
     spikes_found: usize,
+    /// Records with an output-resolution warning, how often its interval of the sensor's N
+    /// (rounding taken out) covered the planted N, and its ratios to it.
+    resolution_found: usize,
+    resolution_covered: usize,
+    resolution_ratios: Vec<f64>,
+}
+
+/// The smallest non-zero difference between consecutive samples (what the quality screen
+/// records as a channel's step).
+fn smallest_step(y: &[f64]) -> f64 {
+    y.windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > 0.0)
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// "(K disagrees 12, lack of fit (Allan) 3)".
@@ -252,6 +266,22 @@ fn main() {
             extra: json!({ "lowpass": { "corner_hz": 20.0, "order": 2 },
                 "spikes": { "count": OUTLIERS, "size": 8.0 * CoefUnit::DegPerSqrtH.to_si(0.15) * FS.sqrt() } }),
             expect: Some("spikes"),
+            seconds: None,
+            rate: None,
+        },
+        Case {
+            name: "rate output rounded to steps of one white σ (4.36e-4 rad/s)",
+            filtered: false,
+            extra: json!({ "lsb": 4.363e-4 }),
+            expect: None,
+            seconds: None,
+            rate: None,
+        },
+        Case {
+            name: "angle quantiser Q = 0.9 arcsec, no filter: the output takes four values",
+            filtered: false,
+            extra: json!({ "noise": { "q": 4.363e-6 } }),
+            expect: None,
             seconds: None,
             rate: None,
         },
@@ -457,6 +487,27 @@ fn main() {
             .ok();
             let mut c = combine(o.allan.as_ref(), o.spectrum.as_ref(), dev.as_ref());
             c.warnings.extend(o.report.warnings());
+            // As `analyze` adds it from the quality screen's step.
+            let rounding = rounding_warning(
+                smallest_step(&y),
+                fs,
+                &c,
+                o.allan.as_ref(),
+                o.spectrum.as_ref(),
+            );
+            if let Some(FitWarning::OutputResolution {
+                n_without,
+                n_lo,
+                n_hi,
+                ..
+            }) = &rounding
+            {
+                tally.resolution_found += 1;
+                tally.resolution_ratios.push(n_without / truths[0].1);
+                tally.resolution_covered +=
+                    usize::from(*n_lo <= truths[0].1 && n_hi.is_none_or(|hi| truths[0].1 <= hi));
+            }
+            c.warnings.extend(rounding);
             if verbose {
                 for w in &c.warnings {
                     eprintln!("  warning {}", w.describe());
@@ -474,6 +525,7 @@ fn main() {
                     }
                     FitWarning::LoopLimitReached { .. } => "loop limit".to_string(),
                     FitWarning::RivalModel { effect, .. } => format!("rival {effect}"),
+                    FitWarning::OutputResolution { .. } => "output resolution".to_string(),
                 });
             }
             if let Some(path) = &dump {
@@ -587,6 +639,16 @@ fn main() {
                 tally.couplings_found,
                 pct(tally.coupling_covered, tally.couplings_found),
                 median(&mut tally.coupling_ratios)
+            ));
+        }
+        if tally.resolution_found > 0 {
+            edge_notes.push(format!(
+                "{}: an output-resolution warning in {} of {} records; the sensor's N it gives (rounding taken out) has a median ratio {:.4} to the planted N, and its 1σ interval covers it in {}.",
+                case.name,
+                tally.resolution_found,
+                tally.runs,
+                median(&mut tally.resolution_ratios),
+                pct(tally.resolution_covered, tally.resolution_found)
             ));
         }
         if tally.ramps > 0 {

@@ -15,8 +15,8 @@ use crate::avar::{Deviations, Statistic};
 use crate::effects::{close_loop_from_base, AuxSeries, LoopConfig, LoopReport};
 use crate::estimate::{ChannelDeviations, ChannelPsd};
 use crate::model::{
-    combine, compare, detect_bandwidth, fit_avar, fit_psd, Bandwidth, Combined, FitError,
-    FitOptions, NoiseFit, Sensor, TermComparison,
+    combine, compare, detect_bandwidth, fit_avar, fit_psd, rounding_warning, Bandwidth, Combined,
+    FitError, FitOptions, NoiseFit, Sensor, TermComparison,
 };
 
 /// One channel's fits.
@@ -84,12 +84,30 @@ pub struct ChannelInput<'a> {
     /// The clean samples (SI), for the residual loop.
     pub samples: &'a [f64],
     pub rate_hz: f64,
+    /// The smallest step between the channel's samples (SI; the quality screen's): the grid of a
+    /// digital output, whose rounding [`crate::model::rounding_warning`] weighs against N.
+    pub output_step: Option<f64>,
 }
 
 /// Fits one channel and, with `loop_cfg`, closes the loop on it (`aux`: channels that may
 /// explain part of it, such as temperature). The loop fits with `opts` (`loop_cfg.fit` is not
 /// used) and starts from the base fits made here.
 pub fn analyze_channel(
+    input: ChannelInput<'_>,
+    aux: &[AuxSeries<'_>],
+    opts: &FitOptions,
+    loop_cfg: Option<&LoopConfig>,
+) -> ChannelAnalysis {
+    let (step, rate_hz) = (input.output_step, input.rate_hz);
+    let mut a = fit_and_close(input, aux, opts, loop_cfg);
+    let rounding = step
+        .and_then(|h| rounding_warning(h, rate_hz, &a.combined, a.allan_fit(), a.spectrum_fit()));
+    a.combined.warnings.extend(rounding);
+    a
+}
+
+/// The base fits and the residual loop of [`analyze_channel`].
+fn fit_and_close(
     input: ChannelInput<'_>,
     aux: &[AuxSeries<'_>],
     opts: &FitOptions,

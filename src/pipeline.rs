@@ -427,6 +427,11 @@ fn fit_channels(
                 deviations: avar.get(i)?,
                 samples: samples.get(i).map_or(&[], Vec::as_slice),
                 rate_hz: recording.rate_hz,
+                output_step: quality
+                    .channels
+                    .iter()
+                    .find(|q| q.name == c.name)
+                    .and_then(|q| q.summary.smallest_step),
             })
         })
         .collect();

@@ -113,6 +113,22 @@ pub enum FitWarning {
         weight: f64,
         evidence: String,
     },
+    /// The samples lie on a grid of `step`, whose rounding (white, r = `rounding_n` in N's unit)
+    /// makes up `share` of N²: the sensor's N without it is `n_without` in [`n_lo`, `n_hi`] (bounds
+    /// only where the step exceeds [`crate::model::SUBTRACTION_HOLDS_TO_STEPS`] output σ, no upper
+    /// one beyond [`crate::model::UPPER_BOUND_HOLDS_TO_STEPS`]).
+    /// `angle_q`: the fits do not exclude that the grid is an integrated angle's, whose Q this
+    /// would be (and then N holds no rounding). See [`crate::model::rounding_warning`].
+    OutputResolution {
+        step: f64,
+        steps_per_sigma: f64,
+        rounding_n: f64,
+        share: f64,
+        n_without: f64,
+        n_lo: f64,
+        n_hi: Option<f64>,
+        angle_q: Option<f64>,
+    },
 }
 
 impl FitWarning {
@@ -174,6 +190,74 @@ impl FitWarning {
                 },
                 100.0 * super::rival_share(*weight)
             ),
+            FitWarning::OutputResolution { .. } => {
+                resolution_line(self, |x| format!("{x:.4e}"), "(SI)", "(SI)")
+            }
+        }
+    }
+}
+
+/// The [`FitWarning::OutputResolution`] sentence, with N's values written by `n` in `unit` and the
+/// step in `step_unit`.
+pub fn resolution_line(
+    w: &FitWarning,
+    n: impl Fn(f64) -> String,
+    unit: &str,
+    step_unit: &str,
+) -> String {
+    let FitWarning::OutputResolution {
+        step,
+        steps_per_sigma,
+        rounding_n,
+        share,
+        n_without,
+        n_lo,
+        n_hi,
+        angle_q,
+    } = w
+    else {
+        return String::new();
+    };
+    let angle = angle_q.map_or(String::new(), |q| {
+        format!(
+            "; if the grid is that of an integrated angle instead, its error is the quantisation \
+             term Q = {q:.3e} (SI), which the fits do not exclude, and N holds no rounding"
+        )
+    });
+    let grid = format!("the samples lie on a grid of {step:.4e} {step_unit}");
+    let added = format!(
+        "rounding a rate to it adds white noise of {} {unit} to N, {:.1} % of N²",
+        n(*rounding_n),
+        100.0 * share
+    );
+    match n_hi {
+        Some(hi) if *steps_per_sigma <= super::SUBTRACTION_HOLDS_TO_STEPS => format!(
+            "{grid}: {added}; the sensor's N without it is {} [{}, {}] {unit}{angle}",
+            n(*n_without),
+            n(*n_lo),
+            n(*hi)
+        ),
+        Some(hi) => format!(
+            "{grid}: {added}; the step is {steps_per_sigma:.2} times the output's white σ, too \
+             coarse for the rounding to be subtracted exactly: the sensor's N lies between {} \
+             and {} {unit}{angle}",
+            n(*n_lo),
+            n(*hi)
+        ),
+        None => {
+            let floor = if *n_lo > 0.0 {
+                format!("the sensor's N is at least {} {unit} and", n(*n_lo))
+            } else {
+                "the sensor's N".to_string()
+            };
+            format!(
+                "{grid}, {steps_per_sigma:.2} times the output's white σ: a quantiser this coarse \
+                 hides noise (its rounding alone would add {} {unit}, {:.0} % of the output's N²), \
+                 so {floor} cannot be read from this output, and the other terms too describe the \
+                 quantised output, not the sensor{angle}",
+                n(*rounding_n),
+                100.0 * share
+            )
         }
     }
 }

@@ -71,6 +71,7 @@ pub(crate) mod linalg;
 mod nnls;
 mod options;
 mod psd_fit;
+mod resolution;
 mod result;
 mod select;
 mod terms;
@@ -79,12 +80,15 @@ mod units;
 pub use avar_fit::{fit_avar, fit_avar_with};
 pub use average::{average_with_rival, rival_share};
 pub use bandwidth::{detect_bandwidth, Bandwidth, FilterForm, LowPass, BAND_BIAS};
-pub use combine::{combine, read_offs, upper_limit, Combined, CombinedTerm, FitWarning, ReadOff};
+pub use combine::{
+    combine, read_offs, resolution_line, upper_limit, Combined, CombinedTerm, FitWarning, ReadOff,
+};
 pub use compare::{compare, TermComparison};
 pub use effect::EffectShape;
 pub use error::FitError;
 pub use options::FitOptions;
 pub use psd_fit::{fit_psd, fit_psd_with};
+pub use resolution::{rounding_warning, SUBTRACTION_HOLDS_TO_STEPS, UPPER_BOUND_HOLDS_TO_STEPS};
 pub use result::{
     Candidate, Criterion, Domain, EffectEstimate, FitPoint, LackOfFit, NoiseFit, TermEstimate,
     UpperLimit,

@@ -284,8 +284,10 @@ pub fn verdicts(spec: &ChannelSpec, summary: &ChannelSummary) -> Vec<ChannelVerd
     }
     // Saturation is judged on inertial channels only: a slow temperature sensor held at each IMU
     // sample (MCAP temperature topics) sits on its extremes for many samples without clipping.
+    // With a handful of levels, an extreme level holding many samples is what a coarse
+    // quantiser does; clipping cannot be told from it.
     let unresolved = out.iter().any(|v| !v.analysable());
-    if inertial && summary.possibly_saturated && !unresolved {
+    if inertial && lively && summary.possibly_saturated && !unresolved {
         out.push(ChannelVerdict::PossiblySaturated {
             samples_at_min: summary.samples_at_min,
             samples_at_max: summary.samples_at_max,

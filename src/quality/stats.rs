@@ -45,6 +45,13 @@ pub struct ChannelSummary {
 
 /// Share of samples sitting on one extreme above which a channel is flagged as possibly saturated.
 const SATURATION_SHARE: f64 = 1e-3;
+/// How many times the count a normal distribution of the channel's mean and σ puts on an extreme
+/// level that level must hold to count as piled up (see [`ChannelStats::summary`]). Gaussian
+/// samples rounded to steps of 0.25σ–2σ hold 0.3–0.9 times that count on their extremes; clipped
+/// at 1.5σ–2.5σ before rounding, 2.1–3.1 times on a grid of 0.25σ and 8–13 times on 0.05σ
+/// (10⁵ samples each). On grids of half a σ and coarser, clipping (1.3–1.9 times) cannot be told
+/// from the grid and is not flagged.
+const PILE_UP: f64 = 2.0;
 /// ...and the least count, so that short recordings are not flagged by chance.
 const SATURATION_MIN_COUNT: u64 = 10;
 
@@ -190,21 +197,40 @@ impl ChannelStats {
         let n = self.count;
         let threshold = SATURATION_MIN_COUNT.max((SATURATION_SHARE * n as f64) as u64);
         let constant = self.min == self.max;
+        let std = if n > 1 {
+            (self.m2 / (n - 1) as f64).sqrt()
+        } else {
+            f64::NAN
+        };
+        // A quantised output's extreme level holds every sample within half a step of it: with
+        // a step of the noise's size that is a tenth of the samples, and no sign of clipping
+        // (an angle-quantised gyro whose output takes four values had 11 % on its maximum). The
+        // extremes count as piled up only beyond PILE_UP times what a normal distribution of the
+        // channel's mean and σ puts within half a step of them (for unquantised data about
+        // nothing, so the share threshold alone decides, as before).
+        let half_step = if self.smallest_step.is_finite() {
+            self.smallest_step / 2.0
+        } else {
+            0.0
+        };
+        let piled = |at: u64, from_mean: f64| {
+            let sf = |x: f64| crate::stats::norm_sf(x / std);
+            let expected = n as f64 * (sf(from_mean - half_step) - sf(from_mean + half_step));
+            at >= threshold && (expected.is_nan() || at as f64 > PILE_UP * expected)
+        };
+        let saturated = n > 0
+            && !constant
+            && (piled(self.at_min, self.mean - self.min)
+                || piled(self.at_max, self.max - self.mean));
         ChannelSummary {
             finite_samples: n,
             mean: if n > 0 { self.mean } else { f64::NAN },
-            std: if n > 1 {
-                (self.m2 / (n - 1) as f64).sqrt()
-            } else {
-                f64::NAN
-            },
+            std,
             min: self.min,
             max: self.max,
             samples_at_min: self.at_min,
             samples_at_max: self.at_max,
-            possibly_saturated: n > 0
-                && !constant
-                && (self.at_min >= threshold || self.at_max >= threshold),
+            possibly_saturated: saturated,
             smallest_step: self.smallest_step.is_finite().then_some(self.smallest_step),
             longest_repeat: self.longest_run,
             longest_repeat_start: self.longest_run_start,
@@ -323,6 +349,26 @@ fn count_equal(xs: &[f64], min: f64, max: f64) -> (u64, u64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A Gaussian rounded to steps of 2σ has over 0.1 % of its samples on each extreme level
+    /// (and an angle quantiser's four values far more): a coarse grid, not clipping. Clipped at
+    /// 1.5σ before rounding to steps of σ/4, the samples pile up there.
+    #[test]
+    fn a_coarse_grid_is_not_saturation_but_clipping_on_it_is() {
+        let x = crate::sim::rng::Rng::new(8).gauss_vec(100_000);
+        let summary = |clip: f64, step: f64| {
+            let mut s = ChannelStats::new();
+            for v in &x {
+                s.push((v.clamp(-clip, clip) / step).round() * step);
+            }
+            s.summary()
+        };
+        let free = summary(f64::INFINITY, 2.0);
+        assert!(free.samples_at_max >= 100, "{free:?}");
+        assert!(!free.possibly_saturated, "{free:?}");
+        let clipped = summary(1.5, 0.25);
+        assert!(clipped.possibly_saturated, "{clipped:?}");
+    }
 
     #[test]
     fn welford_survives_a_large_offset() {

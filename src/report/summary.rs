@@ -537,6 +537,14 @@ pub fn warning_line(w: &FitWarning, sensor: Sensor) -> String {
                  worst at {range}; intervals widened ×{inflation:.2}"
             )
         }
+        FitWarning::OutputResolution { .. } => {
+            let [_, u, _] = units_of(sensor, Term::RandomWalk);
+            let step_unit = match sensor {
+                Sensor::Gyro => "rad/s",
+                Sensor::Accel => "m/s²",
+            };
+            crate::model::resolution_line(w, |x| sig4(u.from_si(x)), &u.pretty(), step_unit)
+        }
         other => other.describe(),
     }
 }

@@ -161,6 +161,11 @@ pub fn simulate_channel(
     for (i, sign) in spikes(spec, n, channel_seed) {
         y[i] += sign * spec.spikes.map_or(0.0, |s| s.size);
     }
+    if let Some(lsb) = spec.lsb.filter(|l| *l > 0.0) {
+        for v in &mut y {
+            *v = (*v / lsb).round() * lsb;
+        }
+    }
     y
 }
 

@@ -213,6 +213,7 @@ mod tests {
                     resonances: vec![],
                     drift: None,
                     lowpass: None,
+                    lsb: None,
                 },
                 ChannelSpec::new(
                     "ax",
@@ -299,6 +300,43 @@ mod tests {
             r#"{"rate_hz":1,"duration_s":9,"channels":[],"bogus":1}"#
         )
         .is_err());
+    }
+
+    #[test]
+    fn lsb_rounds_the_rate_output_to_whole_steps() {
+        let base = simulate(&spec()).unwrap();
+        let mut s = spec();
+        // A step of about the white noise's σ: several levels, so the error is nearly uniform.
+        let sigma = {
+            let x = &base.channels[1].samples;
+            let m = x.iter().sum::<f64>() / x.len() as f64;
+            (x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / x.len() as f64).sqrt()
+        };
+        let lsb = sigma;
+        s.channels[1].lsb = Some(lsb);
+        let sim = simulate(&s).unwrap();
+        assert_eq!(sim.channels[0].samples, base.channels[0].samples);
+        let err: Vec<f64> = sim.channels[1]
+            .samples
+            .iter()
+            .zip(&base.channels[1].samples)
+            .map(|(a, b)| {
+                let k = a / lsb;
+                assert!((k - k.round()).abs() < 1e-9, "{a} is not a whole step");
+                a - b
+            })
+            .collect();
+        assert!(err.iter().all(|e| e.abs() <= lsb / 2.0 + 1e-12));
+        let var = err.iter().map(|e| e * e).sum::<f64>() / err.len() as f64;
+        // Uniform on ±lsb/2: lsb²/12, within the sampling error of a few thousand samples.
+        let ratio = var / (lsb * lsb / 12.0);
+        assert!(
+            (0.9..1.1).contains(&ratio),
+            "rounding variance {ratio}× lsb²/12"
+        );
+        let mut bad = s.clone();
+        bad.channels[1].lsb = Some(-1.0);
+        assert!(simulate(&bad).is_err());
     }
 
     #[test]

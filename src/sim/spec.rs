@@ -73,6 +73,13 @@ pub struct ChannelSpec {
     /// rate over its interval).
     #[serde(default)]
     pub lowpass: Option<LowPassSpec>,
+    /// The output's resolution (rad/s or m/s²): each rate sample, spikes included, is rounded to
+    /// a whole number of `lsb`, as a rate sensor's converter does. Unlike Q (an integrated angle
+    /// rounded, whose error differences to blue rate noise), the rounding error of the rate itself
+    /// is white: about `lsb`²/12 of variance per sample while the other noise spans a few steps.
+    /// `None` (or 0): not rounded.
+    #[serde(default)]
+    pub lsb: Option<f64>,
 }
 
 /// A Butterworth low-pass of `order` with its −3 dB corner at `corner_hz` (below Nyquist),
@@ -100,6 +107,7 @@ impl ChannelSpec {
             resonances: vec![],
             drift: None,
             lowpass: None,
+            lsb: None,
         }
     }
 }
@@ -307,6 +315,9 @@ impl SimSpec {
                         nyquist_hz,
                     });
                 }
+            }
+            if let Some(lsb) = ch.lsb {
+                non_negative("lsb", lsb)?;
             }
             for st in &ch.steps {
                 non_negative("steps.time_s", st.time_s)?;

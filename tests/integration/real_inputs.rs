@@ -517,3 +517,108 @@ fn an_axis_without_a_unit_is_named_wherever_it_is_left_out() {
         "{fleet_summary}"
     );
 }
+
+/// Digital outputs on a coarse grid, as real converters give them. A rate rounded to a step of
+/// its white σ: N carries the rounding, and an `output_resolution` warning gives the sensor's N
+/// without it (the truth, within its interval's reach); a step of 4σ: the warning says the N
+/// cannot be read off. An integrated angle rounded (IEEE Q, an output of four levels): its grid
+/// is the Q the fits find, so no rounding warning, no saturation verdict for its populous
+/// extreme levels, and no effect — once a removal moved the series off its grid, the spike
+/// detector took 23 % of the samples for spikes and the loop ended with N a thousandth of the truth.
+#[test]
+fn coarse_digital_outputs_are_read_as_what_they_are() {
+    let dir = tempfile::tempdir().unwrap();
+    let (n, b, k) = (4.363e-5, 1.454e-5, 1.616e-6);
+    let noise = serde_json::json!({ "n": n, "b": b, "k": k });
+    let sigma = n * 10.0; // white σ per sample at 100 Hz
+    let spec = serde_json::json!({ "rate_hz": 100.0, "duration_s": 1800.0, "seed": 43,
+        "channels": [
+            { "name": "fine", "sensor": "gyro", "noise": noise },
+            { "name": "rounded", "sensor": "gyro", "noise": noise, "lsb": sigma },
+            { "name": "coarse", "sensor": "gyro", "noise": noise, "lsb": 4.0 * sigma },
+            { "name": "angle", "sensor": "gyro",
+              "noise": { "q": 4.363e-6, "n": n, "b": b, "k": k } } ] });
+    std::fs::write(dir.path().join("spec.json"), spec.to_string()).unwrap();
+    let out = imunoise(
+        &[
+            "simulate",
+            "--spec",
+            "spec.json",
+            "-o",
+            "q.arrow",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let out = imunoise(
+        &["analyze", "q.arrow", "-o", "out", "--backend", "cpu"],
+        dir.path(),
+    );
+    let e = stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/report.json")).unwrap())
+            .unwrap();
+    let file = &doc["files"][0];
+    let analysis = |name: &str| {
+        file["analysis"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|a| a["channel"] == name)
+            .unwrap_or_else(|| panic!("{name} not analysed"))
+            .clone()
+    };
+    let resolution = |name: &str| {
+        analysis(name)["combined"]["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|w| w["kind"] == "output_resolution")
+            .cloned()
+    };
+    let term = |name: &str, symbol: &str| {
+        analysis(name)["combined"]["terms"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|t| t["term"] == symbol)
+            .map(|t| t["value"].as_f64().unwrap())
+    };
+    assert!(resolution("fine").is_none());
+
+    let w = resolution("rounded").expect("a warning on the rounded axis");
+    let without = w["n_without"].as_f64().unwrap();
+    // The output's N is √(1 + 1/12) times the sensor's; without the rounding, the truth.
+    let output_n = term("rounded", "random_walk").unwrap();
+    assert!(output_n / n > 1.03, "output N {output_n}");
+    assert!(
+        (without / n - 1.0).abs() < 0.01,
+        "N without rounding {without}"
+    );
+    assert!(e.contains("rounded: the samples lie on a grid"), "{e}");
+
+    let w = resolution("coarse").expect("a warning on the coarse axis");
+    assert!(w["n_hi"].is_null(), "{w}");
+    assert!(w["steps_per_sigma"].as_f64().unwrap() > 2.7, "{w}");
+
+    assert!(resolution("angle").is_none());
+    let angle = analysis("angle");
+    let steps = angle["residual_loop"]["steps"].as_array().unwrap();
+    assert!(
+        steps.is_empty(),
+        "effects on the angle-quantised axis: {steps:?}"
+    );
+    let q = term("angle", "quantization").expect("Q found");
+    assert!((q / 4.363e-6 - 1.0).abs() < 0.1, "Q {q}");
+    let angle_n = term("angle", "random_walk").unwrap();
+    assert!((angle_n / n - 1.0).abs() < 0.05, "N {angle_n}");
+    let verdicts = &file["quality"]["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["name"] == "angle")
+        .unwrap()["verdicts"];
+    assert_eq!(verdicts.as_array().map(Vec::len), Some(0), "{verdicts}");
+}

@@ -37,7 +37,7 @@ mod testutil;
 pub use coupling::{fit_coupling, remove_coupling, Coupling};
 pub use narrowband::{measure_narrowband, remove_narrowband, NarrowBand};
 pub use sinusoid::{fit_sinusoid, remove_sinusoid, SineFit};
-pub use spikes::{find_spikes, remove_spikes, Spikes};
+pub use spikes::{find_spikes, find_spikes_on_grid, remove_spikes, Spikes};
 pub use stationarity::{split_record, SplitRecord};
 pub use step::{find_step, remove_step, Step, StepMethod};
 

@@ -94,6 +94,14 @@ pub struct Spikes {
 
 /// Finds spikes in `y`. Fewer than 16 samples, or a locally constant series: none.
 pub fn find_spikes(y: &[f64], rate_hz: f64) -> Spikes {
+    find_spikes_on_grid(y, rate_hz, 0.0)
+}
+
+/// [`find_spikes`] on a series known to come from an output quantised at `grid` (0: none known):
+/// the larger of that step and the one read from the series' own residuals is the grid step δ of
+/// the scale, so that a series altered by a removal (and so no longer on its grid) still has no
+/// one-step move taken for a spike.
+pub fn find_spikes_on_grid(y: &[f64], rate_hz: f64, grid: f64) -> Spikes {
     let n = y.len();
     let mut out = Spikes {
         indices: vec![],
@@ -124,6 +132,11 @@ pub fn find_spikes(y: &[f64], rate_hz: f64) -> Spikes {
         .filter(|v| *v > 0.0)
         .fold(f64::INFINITY, f64::min);
     let delta = if delta.is_finite() { delta } else { 0.0 };
+    let delta = if grid.is_finite() {
+        delta.max(grid)
+    } else {
+        delta
+    };
     let sigma = clipped_scale(r_spread, t);
     let sigma = (sigma * sigma + delta * delta / 4.0).sqrt();
     out.sigma = sigma;
@@ -651,6 +664,24 @@ mod tests {
             "{linear} vs {expected}"
         );
         assert!(median > 1.5 * expected, "{median} vs {expected}");
+    }
+
+    /// An output of a handful of levels (Gaussian of 0.3 steps, rounded), then moved off its
+    /// grid by a hundredth of a step, as a removal does: read from the series alone, the grid is
+    /// lost and the ordinary one-step moves pass for spikes; with the recording's grid, none do.
+    #[test]
+    fn the_recordings_grid_keeps_one_step_moves_from_being_spikes() {
+        let n = 60_000;
+        let mut rng = crate::sim::rng::Rng::new(12);
+        let altered: Vec<f64> = rng
+            .gauss_vec(n)
+            .iter()
+            .map(|v| (0.3 * v).round() + 0.01 * rng.gauss())
+            .collect();
+        let alone = find_spikes(&altered, FS);
+        assert!(alone.indices.len() > 100, "{}", alone.indices.len());
+        let on_grid = find_spikes_on_grid(&altered, FS, 1.0);
+        assert!(on_grid.indices.is_empty(), "{}", on_grid.indices.len());
     }
 
     #[test]
