@@ -27,8 +27,11 @@ pub(crate) fn coefficient_interval(c: f64, var: f64, p: f64) -> (f64, f64, f64) 
         let sd = var.sqrt();
         return ((c - z * sd).max(0.0).sqrt(), (c + z * sd).sqrt(), nu);
     }
-    let lo = nu * c / chi2_quantile(1.0 - q, nu);
-    let hi = nu * c / chi2_quantile(q, nu);
+    // Below ν ≈ 0.3 the χ²_ν mass crowds at 0 so that even its upper quantile lies below the
+    // mean: the scaled interval then excludes the estimate itself (a K of 5.0e-7 was printed with
+    // [6.7e-7, 0.84]). An interval always holds its estimate.
+    let lo = (nu * c / chi2_quantile(1.0 - q, nu)).min(c);
+    let hi = (nu * c / chi2_quantile(q, nu)).max(c);
     (lo.sqrt(), hi.sqrt(), nu)
 }
 
@@ -43,6 +46,17 @@ mod tests {
         let (lo, hi, nu) = coefficient_interval(c, sd * sd, crate::avar::ONE_SIGMA);
         assert!((nu - 2e6).abs() < 1.0);
         assert!((lo * lo - (c - sd)).abs() < 1e-5 && (hi * hi - (c + sd)).abs() < 1e-5);
+    }
+
+    /// A term the data hardly determine (ν = 0.005): the interval still holds the estimate.
+    #[test]
+    fn a_vanishing_nu_keeps_the_estimate_inside() {
+        let c = 1.0;
+        let nu = 0.005;
+        let (lo, hi, got) = coefficient_interval(c, 2.0 * c * c / nu, crate::avar::ONE_SIGMA);
+        assert!((got - nu).abs() < 1e-12);
+        assert!(lo <= 1.0 && 1.0 <= hi, "[{lo}, {hi}]");
+        assert!(hi > 1.0);
     }
 
     #[test]
