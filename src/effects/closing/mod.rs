@@ -784,8 +784,12 @@ fn propose(
             ));
             continue;
         }
+        // Beyond the fit band a line is measured against the spectrum's own level around it
+        // where that lies above the extrapolated model (within OUT_OF_BAND_SLACK of it).
+        let mut level = 1.0;
         if !in_band {
             let around = shoulder_ratio(&state.psd, &model, e.f_lo_hz, e.f_hi_hz);
+            level = around.max(1.0);
             if around > OUT_OF_BAND_SLACK {
                 unexplained.push(excess_note(
                     e,
@@ -797,7 +801,8 @@ fn propose(
                 continue;
             }
         }
-        let noise = model(e.freq_hz);
+        let local = |f: f64| level * model(f);
+        let noise = local(e.freq_hz);
         let sine = fit_sinusoid(y, fs, e.freq_hz, noise, p);
         // A line puts its power A²/2 in the group; a resonance or a wandering line spreads power
         // the sinusoid explains only a part of.
@@ -816,10 +821,10 @@ fn propose(
         }
         if narrow {
             if let Some(mut nb) =
-                measure_narrowband(&state.psd, &model, e.f_lo_hz, e.f_hi_hz, searched, z)
+                measure_narrowband(&state.psd, &local, e.f_lo_hz, e.f_hi_hz, searched, z)
             {
                 nb.coherent_share = line_share.min(1.0);
-                let clean = remove_narrowband(y, fs, &nb, &model, state.psd.nperseg);
+                let clean = remove_narrowband(y, fs, &nb, &local, state.psd.nperseg);
                 out.push(Candidate {
                     delta_bic: nb.delta_bic,
                     evidence: format!(
@@ -852,8 +857,9 @@ fn propose(
 /// the recording leaves the IEEE model near Nyquist, as an angle quantiser with little motion
 /// does: its error is no longer white) the whole region lies above it and every noise bump of
 /// it passes for a line. An excess whose shoulders ([`shoulder_ratio`]) lie more than this
-/// factor above the model is not proposed. A line beside a well-fitted filter keeps shoulders
-/// within a few per cent of the model.
+/// factor above the model is not proposed, and one within it is measured against the shoulders'
+/// level (where above the model). A line beside a well-fitted filter keeps shoulders within a few
+/// per cent of the model.
 const OUT_OF_BAND_SLACK: f64 = 1.3;
 
 /// The median of P_k/model(f_k) over the bins on either side of [f_lo, f_hi] (three times its
