@@ -622,3 +622,94 @@ fn coarse_digital_outputs_are_read_as_what_they_are() {
         .unwrap()["verdicts"];
     assert_eq!(verdicts.as_array().map(Vec::len), Some(0), "{verdicts}");
 }
+
+/// A MEMS unit with everything at once: a digital second-order low-pass at 40 Hz on every axis,
+/// a rounded output, a warm-up, and on single axes glitches, a wandering 23 Hz line and a
+/// temperature coupling (x), an excursion (y), a Gauss–Markov process (z), a resonance in the
+/// filter's transition band (accel). Each effect is found on its axis and nowhere else, and the
+/// filter is read right on every axis: once, the glitches' white floor after the filter turned it
+/// into a first-order 25 Hz one with a 3.6 Hz fit band, and the line was dropped as the filter's
+/// edge.
+#[test]
+fn a_sensor_with_everything_at_once_is_taken_apart() {
+    let dir = tempfile::tempdir().unwrap();
+    let gyro = serde_json::json!({ "n": 8.7e-5, "b": 2.9e-5, "k": 3e-6 });
+    let lp = serde_json::json!({ "corner_hz": 40.0, "order": 2 });
+    let spec = serde_json::json!({ "rate_hz": 200.0, "duration_s": 3600.0, "seed": 7,
+        "temperature": { "start_degc": 20.0, "rise_degc": 5.0, "warmup_s": 900.0,
+                         "wander": { "sigma": 0.3, "tc_s": 300.0 }, "noise_degc": 0.02 },
+        "channels": [
+            { "name": "gyro_x", "sensor": "gyro", "bias": 0.002, "noise": gyro, "lowpass": lp,
+              "lsb": 1.33e-4, "temperature_coefficient": 1e-4,
+              "sinusoids": [ { "amplitude": 6e-4, "freq_hz": 23.0, "wander":
+                  { "freq_wander_hz": 0.1, "amplitude_wander": 0.2, "wander_tc_s": 5.0 } } ],
+              "spikes": { "count": 300, "size": 0.02 } },
+            { "name": "gyro_y", "sensor": "gyro", "bias": -0.001, "noise": gyro, "lowpass": lp,
+              "lsb": 1.33e-4,
+              "steps": [ { "time_s": 1200.0, "size": 3e-4 }, { "time_s": 1500.0, "size": -3e-4 } ] },
+            { "name": "gyro_z", "sensor": "gyro", "noise": gyro, "lowpass": lp, "lsb": 1.33e-4,
+              "gauss_markov": [ { "sigma": 2e-4, "tc_s": 30.0 } ] },
+            { "name": "accel_x", "sensor": "accel", "bias": 9.81,
+              "noise": { "n": 6e-4, "b": 2e-4, "k": 1e-5 }, "lowpass": lp, "lsb": 5.98e-4,
+              "resonances": [ { "f0_hz": 31.0, "q": 15.0, "sigma": 1.5e-3 } ] } ] });
+    std::fs::write(dir.path().join("mems.json"), spec.to_string()).unwrap();
+    let out = imunoise(
+        &[
+            "simulate",
+            "--spec",
+            "mems.json",
+            "-o",
+            "mems.arrow",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let out = imunoise(
+        &["analyze", "mems.arrow", "-o", "out", "--backend", "cpu"],
+        dir.path(),
+    );
+    let e = stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/report.json")).unwrap())
+            .unwrap();
+    let analyses = doc["files"][0]["analysis"].as_array().unwrap();
+    assert_eq!(analyses.len(), 4);
+    for a in analyses {
+        let name = a["channel"].as_str().unwrap();
+        let lp = &a["bandwidth"]["lowpass"];
+        let corner = lp["corner_hz"].as_f64().unwrap_or(0.0);
+        assert!(
+            (corner / 40.0 - 1.0).abs() < 0.1 && lp["order"] == 2,
+            "{name}: {}",
+            a["bandwidth"]
+        );
+        let mut kinds: Vec<&str> = a["residual_loop"]["steps"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s["effect"]["kind"].as_str().unwrap())
+            .collect();
+        kinds.sort_unstable();
+        let expected: &[&str] = match name {
+            "gyro_x" => &["coupling", "narrowband", "spikes"],
+            "gyro_y" => &["excursion"],
+            "gyro_z" => &["gauss_markov"],
+            // The resonance lies beyond the fit band, in the filter's transition: listed as an
+            // unexplained excess, not modelled (see the validation README).
+            _ => &[],
+        };
+        assert_eq!(kinds, expected, "{name}");
+        if name == "gyro_x" {
+            let line = a["residual_loop"]["steps"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|s| s["effect"]["kind"] == "narrowband")
+                .unwrap();
+            let f = line["effect"]["freq_hz"].as_f64().unwrap();
+            assert!((f - 23.0).abs() < 0.2, "line at {f} Hz");
+        }
+    }
+}
