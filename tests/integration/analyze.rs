@@ -1,22 +1,8 @@
 //! The main job end to end: `imunoise simulate` writes a recording with known coefficients,
 //! `imunoise analyze` reads it back through the CLI and must find them, in every output.
-
-use std::path::Path;
-
 use serde_json::Value;
 
 use super::support::*;
-
-fn run_ok(args: &[&str], cwd: &Path) -> std::process::Output {
-    let out = imunoise(args, cwd);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
 
 /// The estimate of `symbol` in `fit` as (value, lo, hi) in `unit`, if kept.
 fn estimate(fit: &Value, symbol: &str, unit: &str) -> Option<(f64, f64, f64)> {
@@ -295,21 +281,6 @@ fn analyze_refuses_bad_fit_flags() {
         assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains(needle), "{args:?}: {err}");
     }
-}
-
-/// `imunoise simulate` of `spec` into `dir`, then `analyze` of the recording on the CPU into
-/// `dir/out`: its stderr and report.json.
-fn simulate_and_analyze(dir: &std::path::Path, spec: &Value) -> (String, Value) {
-    std::fs::write(dir.join("spec.json"), spec.to_string()).unwrap();
-    run_ok(&["simulate", "--spec", "spec.json", "-o", "sim.arrow"], dir);
-    let out = run_ok(
-        &["analyze", "sim.arrow", "-o", "out", "--backend", "cpu"],
-        dir,
-    );
-    let report =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("out/report.json")).unwrap())
-            .unwrap();
-    (String::from_utf8_lossy(&out.stderr).into_owned(), report)
 }
 
 /// Defect: the residual loop stopped after 8 effects without a word, so a record with more lines

@@ -538,28 +538,7 @@ fn coarse_digital_outputs_are_read_as_what_they_are() {
             { "name": "coarse", "sensor": "gyro", "noise": noise, "lsb": 4.0 * sigma },
             { "name": "angle", "sensor": "gyro",
               "noise": { "q": 4.363e-6, "n": n, "b": b, "k": k } } ] });
-    std::fs::write(dir.path().join("spec.json"), spec.to_string()).unwrap();
-    let out = imunoise(
-        &[
-            "simulate",
-            "--spec",
-            "spec.json",
-            "-o",
-            "q.arrow",
-            "--quiet",
-        ],
-        dir.path(),
-    );
-    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-    let out = imunoise(
-        &["analyze", "q.arrow", "-o", "out", "--backend", "cpu"],
-        dir.path(),
-    );
-    let e = stderr(&out);
-    assert_eq!(out.status.code(), Some(0), "{e}");
-    let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/report.json")).unwrap())
-            .unwrap();
+    let (e, doc) = simulate_and_analyze(dir.path(), &spec);
     let file = &doc["files"][0];
     let analysis = |name: &str| {
         file["analysis"]
@@ -652,28 +631,7 @@ fn a_sensor_with_everything_at_once_is_taken_apart() {
             { "name": "accel_x", "sensor": "accel", "bias": 9.81,
               "noise": { "n": 6e-4, "b": 2e-4, "k": 1e-5 }, "lowpass": lp, "lsb": 5.98e-4,
               "resonances": [ { "f0_hz": 31.0, "q": 15.0, "sigma": 1.5e-3 } ] } ] });
-    std::fs::write(dir.path().join("mems.json"), spec.to_string()).unwrap();
-    let out = imunoise(
-        &[
-            "simulate",
-            "--spec",
-            "mems.json",
-            "-o",
-            "mems.arrow",
-            "--quiet",
-        ],
-        dir.path(),
-    );
-    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-    let out = imunoise(
-        &["analyze", "mems.arrow", "-o", "out", "--backend", "cpu"],
-        dir.path(),
-    );
-    let e = stderr(&out);
-    assert_eq!(out.status.code(), Some(0), "{e}");
-    let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/report.json")).unwrap())
-            .unwrap();
+    let (_, doc) = simulate_and_analyze(dir.path(), &spec);
     let analyses = doc["files"][0]["analysis"].as_array().unwrap();
     assert_eq!(analyses.len(), 4);
     for a in analyses {

@@ -159,3 +159,30 @@ pub fn loop_gyro() -> imunoise::model::Coefficients {
         ..Default::default()
     }
 }
+
+/// Runs the binary with `args` in `cwd`; it must succeed.
+pub fn run_ok(args: &[&str], cwd: &Path) -> Output {
+    let out = imunoise(args, cwd);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// `imunoise simulate` of `spec` into `dir`, then `analyze` of the recording on the CPU into
+/// `dir/out`: its stderr and report.json.
+pub fn simulate_and_analyze(dir: &Path, spec: &serde_json::Value) -> (String, serde_json::Value) {
+    std::fs::write(dir.join("spec.json"), spec.to_string()).unwrap();
+    run_ok(&["simulate", "--spec", "spec.json", "-o", "sim.arrow"], dir);
+    let out = run_ok(
+        &["analyze", "sim.arrow", "-o", "out", "--backend", "cpu"],
+        dir,
+    );
+    let report =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("out/report.json")).unwrap())
+            .unwrap();
+    (String::from_utf8_lossy(&out.stderr).into_owned(), report)
+}
