@@ -191,19 +191,26 @@ impl FitWarning {
                 100.0 * super::rival_share(*weight)
             ),
             FitWarning::OutputResolution { .. } => {
-                resolution_line(self, |x| format!("{x:.4e}"), "(SI)", "(SI)")
+                resolution_line(
+                    self,
+                    |x| format!("{x:.4e}"),
+                    "(SI)",
+                    "(SI)",
+                    |q| format!("{q:.3e} (SI)"),
+                )
             }
         }
     }
 }
 
-/// The [`FitWarning::OutputResolution`] sentence, with N's values written by `n` in `unit` and the
-/// step in `step_unit`.
+/// The [`FitWarning::OutputResolution`] sentence, with N's values written by `n` in `unit`, the
+/// step in `step_unit` and the angle reading's Q by `q` (value and unit).
 pub fn resolution_line(
     w: &FitWarning,
     n: impl Fn(f64) -> String,
     unit: &str,
     step_unit: &str,
+    q: impl Fn(f64) -> String,
 ) -> String {
     let FitWarning::OutputResolution {
         step,
@@ -218,10 +225,11 @@ pub fn resolution_line(
     else {
         return String::new();
     };
-    let angle = angle_q.map_or(String::new(), |q| {
+    let angle = angle_q.map_or(String::new(), |angle_q| {
         format!(
             "; if the grid is that of an integrated angle instead, its error is the quantisation \
-             term Q = {q:.3e} (SI), which the fits do not exclude, and N holds no rounding"
+             term Q = {}, which the fits do not exclude, and N holds no rounding",
+            q(angle_q)
         )
     });
     let grid = format!("the samples lie on a grid of {step:.4e} {step_unit}");

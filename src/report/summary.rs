@@ -543,7 +543,14 @@ pub fn warning_line(w: &FitWarning, sensor: Sensor) -> String {
                 Sensor::Gyro => "rad/s",
                 Sensor::Accel => "m/s²",
             };
-            crate::model::resolution_line(w, |x| sig4(u.from_si(x)), &u.pretty(), step_unit)
+            let [_, uq, _] = units_of(sensor, Term::Quantization);
+            crate::model::resolution_line(
+                w,
+                |x| sig4(u.from_si(x)),
+                &u.pretty(),
+                step_unit,
+                |q| format!("{} {}", sig4(uq.from_si(q)), uq.pretty()),
+            )
         }
         other => other.describe(),
     }
@@ -696,6 +703,26 @@ mod tests {
             warning_line(&w, Sensor::Gyro).contains("worst at τ = 0.01–163.8 s;"),
             "{}",
             warning_line(&w, Sensor::Gyro)
+        );
+        // N in °/√h, the step in rad/s, the angle reading's Q in arcsec (1 arcsec = 4.848e-6 rad).
+        let deg_sqrt_h = std::f64::consts::PI / 180.0 / 60.0;
+        let w = FitWarning::OutputResolution {
+            step: 4.363e-4,
+            steps_per_sigma: 0.96,
+            rounding_n: 0.0433 * deg_sqrt_h,
+            share: 0.077,
+            n_without: 0.1498 * deg_sqrt_h,
+            n_lo: 0.1495 * deg_sqrt_h,
+            n_hi: Some(0.1502 * deg_sqrt_h),
+            angle_q: Some(2.0 * 4.848_137e-6),
+        };
+        let line = warning_line(&w, Sensor::Gyro);
+        assert!(
+            line.contains("grid of 4.3630e-4 rad/s")
+                && line.contains("0.04330 °/√h to N, 7.7 % of N²")
+                && line.contains("0.1498 [0.1495, 0.1502] °/√h")
+                && line.contains("Q = 2.000 arcsec"),
+            "{line}"
         );
     }
 }
