@@ -22,7 +22,8 @@
 //!   channel that shows it (a line on one robot of fifty; not the temperature coupling every unit
 //!   of the batch shows).
 //! - **Quality**: a channel the quality screen gave a verdict other than `no_unit` (stuck,
-//!   frozen runs, saturation, too few levels).
+//!   frozen runs, saturation, too few levels), or an output grid too coarse to read its noise
+//!   from (`coarse_output`, from the [`crate::model::FitWarning::OutputResolution`] warning).
 //!
 //! A channel is *flagged* when it fails a limit, is an outlier in a term, shows an unusual effect
 //! or has such a quality verdict; `reasons` says which, with the numbers. Undecided verdicts are

@@ -7,7 +7,7 @@
 //! fleet table lists it.
 
 use crate::analysis::ChannelAnalysis;
-use crate::model::{Sensor, Term};
+use crate::model::{FitWarning, Sensor, Term};
 use crate::pipeline::FileResult;
 use crate::report::{effect_line, EffectUnits};
 
@@ -177,6 +177,10 @@ impl ChannelRecord {
     }
 }
 
+/// The quality entry of a channel whose output grid hides its noise
+/// ([`FitWarning::OutputResolution`] without an upper bound of the sensor's N).
+pub const COARSE_OUTPUT: &str = "coarse_output";
+
 fn verdict_name(v: &crate::quality::ChannelVerdict) -> String {
     match serde_json::to_value(v) {
         Ok(serde_json::Value::Object(m)) => m
@@ -209,8 +213,21 @@ fn fill_analysis(rec: &mut ChannelRecord, a: &ChannelAnalysis, units: &EffectUni
             rec.effects_detail.push(effect_line(&s.effect, units));
         }
     }
-    rec.warnings
-        .extend(a.combined.warnings.iter().map(|w| w.describe()));
+    rec.warnings.extend(
+        a.combined
+            .warnings
+            .iter()
+            .map(|w| crate::report::warning_line(w, a.sensor)),
+    );
+    // An output too coarse to read the sensor's noise from is a quality matter for a screen, as
+    // a channel of one or two levels is (its terms describe the quantiser).
+    for w in &a.combined.warnings {
+        if let FitWarning::OutputResolution { n_hi: None, .. } = w {
+            rec.quality.push(COARSE_OUTPUT.into());
+            rec.quality_detail
+                .push(crate::report::warning_line(w, a.sensor));
+        }
+    }
     for (domain, fit) in [("Allan", &a.allan), ("spectrum", &a.spectrum)] {
         if let Err(e) = fit {
             rec.warnings.push(format!("{domain} fit failed: {e}"));

@@ -600,6 +600,19 @@ fn coarse_digital_outputs_are_read_as_what_they_are() {
         .find(|c| c["name"] == "angle")
         .unwrap()["verdicts"];
     assert_eq!(verdicts.as_array().map(Vec::len), Some(0), "{verdicts}");
+
+    // A screen flags the axis whose noise the grid hides, and only that one.
+    run_ok(
+        &["screen", "sim.arrow", "-o", "screened", "--backend", "cpu"],
+        dir.path(),
+    );
+    let fleet = std::fs::read_to_string(dir.path().join("screened/summary.md")).unwrap();
+    let flagged: Vec<&str> = fleet
+        .lines()
+        .filter(|l| l.contains("| coarse_output |"))
+        .collect();
+    assert_eq!(flagged.len(), 1, "{fleet}");
+    assert!(flagged[0].contains("| coarse |"), "{fleet}");
 }
 
 /// A MEMS unit with everything at once: a digital second-order low-pass at 40 Hz on every axis,
