@@ -10,6 +10,7 @@
 use imunoise::avar::{compute, Confidence, Statistic, TauGrid};
 use imunoise::effects::{close_loop, AuxSeries, LoopConfig};
 use imunoise::model::{combine, rounding_warning, CoefUnit, Coefficients, FitWarning, Term};
+use imunoise::quality::smallest_step;
 use imunoise::sim::{simulate, SimSpec};
 use serde_json::json;
 
@@ -87,15 +88,6 @@ struct Tally {
     resolution_found: usize,
     resolution_covered: usize,
     resolution_ratios: Vec<f64>,
-}
-
-/// The smallest non-zero difference between consecutive samples (what the quality screen
-/// records as a channel's step).
-fn smallest_step(y: &[f64]) -> f64 {
-    y.windows(2)
-        .map(|w| (w[1] - w[0]).abs())
-        .filter(|d| *d > 0.0)
-        .fold(f64::INFINITY, f64::min)
 }
 
 /// "(K disagrees 12, lack of fit (Allan) 3)".
@@ -488,13 +480,8 @@ fn main() {
             let mut c = combine(o.allan.as_ref(), o.spectrum.as_ref(), dev.as_ref());
             c.warnings.extend(o.report.warnings());
             // As `analyze` adds it from the quality screen's step.
-            let rounding = rounding_warning(
-                smallest_step(&y),
-                fs,
-                &c,
-                o.allan.as_ref(),
-                o.spectrum.as_ref(),
-            );
+            let rounding = smallest_step(&y)
+                .and_then(|h| rounding_warning(h, fs, &c, o.allan.as_ref(), o.spectrum.as_ref()));
             if let Some(FitWarning::OutputResolution {
                 n_without,
                 n_lo,

@@ -213,20 +213,15 @@ fn fill_analysis(rec: &mut ChannelRecord, a: &ChannelAnalysis, units: &EffectUni
             rec.effects_detail.push(effect_line(&s.effect, units));
         }
     }
-    rec.warnings.extend(
-        a.combined
-            .warnings
-            .iter()
-            .map(|w| crate::report::warning_line(w, a.sensor)),
-    );
-    // An output too coarse to read the sensor's noise from is a quality matter for a screen, as
-    // a channel of one or two levels is (its terms describe the quantiser).
     for w in &a.combined.warnings {
+        let line = crate::report::warning_line(w, a.sensor);
+        // An output too coarse to read the sensor's noise from is a quality matter for a screen,
+        // as a channel of one or two levels is (its terms describe the quantiser).
         if let FitWarning::OutputResolution { n_hi: None, .. } = w {
             rec.quality.push(COARSE_OUTPUT.into());
-            rec.quality_detail
-                .push(crate::report::warning_line(w, a.sensor));
+            rec.quality_detail.push(line.clone());
         }
+        rec.warnings.push(line);
     }
     for (domain, fit) in [("Allan", &a.allan), ("spectrum", &a.spectrum)] {
         if let Err(e) = fit {

@@ -50,7 +50,7 @@ use crate::psd::{BinnedPsd, Psd};
 use super::fit::{members, Mask, Problem};
 use super::psd_fit::{filtered_basis, spectrum_problem, spectrum_terms, BandSamples};
 use super::select::rank_subsets;
-use super::terms::{EFFECT, TERMS};
+use super::terms::{BASE, EFFECT, TERMS};
 use super::{FitOptions, Term};
 
 /// Largest bias a band's filter may leave in the points the fits use (2 %).
@@ -298,25 +298,29 @@ pub fn detect_bandwidth(
     // parameter: without it, 300 glitches of a gyro (a floor 0.11× the white level) made the
     // roll-off of a second-order filter at 40 Hz read as a first-order one at 25 Hz, and the fit
     // band end at 3.6 Hz.
-    let n_white = Term::RandomWalk.index();
     let floor_penalty = (plain.len() as f64).ln();
-    // One fit per trial with the floor allowed: the non-negative fit leaves it at 0 where it
-    // does not help, and only a floor in use is charged.
-    let with_floor = |lp: &LowPass| -> Problem {
-        let mut p = plain.clone();
-        p.basis = filtered_basis(&samples, lp);
-        for (i, b) in p.basis.iter_mut().enumerate() {
-            b[EFFECT] = samples[i].iter().map(|(_, v)| v[n_white]).sum::<f64>()
-                / samples[i].len().max(1) as f64;
-            p.edf[i][EFFECT] = p.edf[i][n_white];
+    // The floor's column is the unfiltered white basis, the same for every response: set once (in
+    // the effect column, with white noise's EDF) on the problem the trials copy.
+    let white = Term::RandomWalk.index();
+    let mut floored = plain.clone();
+    for (b, edf) in floored.basis.iter_mut().zip(floored.edf.iter_mut()) {
+        b[EFFECT] = b[white];
+        edf[EFFECT] = edf[white];
+    }
+    // `base` (the unfiltered or floored problem) with the response's filtered base terms.
+    let filtered = |base: &Problem, lp: &LowPass| -> Problem {
+        let mut p = base.clone();
+        for (b, f) in p.basis.iter_mut().zip(filtered_basis(&samples, lp)) {
+            b[..BASE].copy_from_slice(&f[..BASE]);
         }
         p
     };
+    let with_floor = |lp: &LowPass| filtered(&floored, lp);
+    // One fit per trial with the floor allowed: the non-negative fit leaves it at 0 where it
+    // does not help, and only a floor in use is charged.
     let try_filter = |lp: LowPass, floor: bool| -> f64 {
         if !floor {
-            let mut p = plain.clone();
-            p.basis = filtered_basis(&samples, &lp);
-            return neg2ll(&p, mask);
+            return neg2ll(&filtered(&plain, &lp), mask);
         }
         let p = with_floor(&lp);
         let fit = p.irls(mask | (1 << EFFECT));

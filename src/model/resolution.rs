@@ -58,7 +58,8 @@ pub fn rounding_warning(
     // The angle quantiser's Q for this grid, and whether the fits kept or allow it.
     let angle_q = step / (12f64.sqrt() * rate_hz);
     if let Some(q) = combined.get(Term::Quantization) {
-        if (q.value / angle_q - 1.0).abs() < 0.5 || (angle_q / q.value - 1.0).abs() < 0.5 {
+        let ratio = q.value / angle_q;
+        if ratio > 1.0 / 1.5 && ratio < 1.5 {
             return None;
         }
     }
@@ -170,9 +171,14 @@ mod tests {
         assert!(
             rounding_warning(h, fs, &combined(0.1, 0.002, Some(q * 1.2)), None, None).is_none()
         );
-        // A Q of another size does not explain the grid.
         assert!(
-            rounding_warning(h, fs, &combined(0.1, 0.002, Some(q * 5.0)), None, None).is_some()
+            rounding_warning(h, fs, &combined(0.1, 0.002, Some(q / 1.4)), None, None).is_none()
         );
+        // A Q of another size does not explain the grid (beyond ×/÷ 1.5 either way).
+        for other in [q * 1.6, q / 1.6, q * 5.0] {
+            assert!(
+                rounding_warning(h, fs, &combined(0.1, 0.002, Some(other)), None, None).is_some()
+            );
+        }
     }
 }

@@ -18,7 +18,7 @@ use crate::io::ChannelSpec;
 use crate::units::Kind;
 
 pub use clean::{Cleaner, SampleChunk, JITTER_AMBIGUOUS_PERIODS};
-pub use stats::{ChannelStats, ChannelSummary};
+pub use stats::{smallest_step, ChannelStats, ChannelSummary};
 
 /// What to do with a NaN, ±Inf or null sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]

@@ -43,6 +43,18 @@ pub struct ChannelSummary {
     pub longest_repeat_start: u64,
 }
 
+/// The smallest non-zero difference between consecutive samples of `y` (`None` where every
+/// difference is 0 or `y` has fewer than 2 samples): the quantisation step of a digital output,
+/// as [`ChannelSummary::smallest_step`] reads it while streaming.
+pub fn smallest_step(y: &[f64]) -> Option<f64> {
+    let step = y
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    step.is_finite().then_some(step)
+}
+
 /// Share of samples sitting on one extreme above which a channel is flagged as possibly saturated.
 const SATURATION_SHARE: f64 = 1e-3;
 /// How many times the count a normal distribution of the channel's mean and σ puts on an extreme

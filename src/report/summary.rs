@@ -539,16 +539,14 @@ pub fn warning_line(w: &FitWarning, sensor: Sensor) -> String {
         }
         FitWarning::OutputResolution { .. } => {
             let [_, u, _] = units_of(sensor, Term::RandomWalk);
-            let step_unit = match sensor {
-                Sensor::Gyro => "rad/s",
-                Sensor::Accel => "m/s²",
-            };
             let [_, uq, _] = units_of(sensor, Term::Quantization);
+            // The step is a rate: in B's SI unit (rad/s, m/s²).
+            let [rate, _, _] = units_of(sensor, Term::BiasInstability);
             crate::model::resolution_line(
                 w,
                 |x| sig4(u.from_si(x)),
                 &u.pretty(),
-                step_unit,
+                &rate.pretty(),
                 |q| format!("{} {}", sig4(uq.from_si(q)), uq.pretty()),
             )
         }

@@ -307,21 +307,6 @@ struct State<'a> {
     grid: f64,
 }
 
-/// The smallest non-zero difference between consecutive samples: the quantisation step of a
-/// digital output (0 when every difference is 0 or the series is shorter than 2).
-fn grid_step(y: &[f64]) -> f64 {
-    let step = y
-        .windows(2)
-        .map(|w| (w[1] - w[0]).abs())
-        .filter(|d| *d > 0.0)
-        .fold(f64::INFINITY, f64::min);
-    if step.is_finite() {
-        step
-    } else {
-        0.0
-    }
-}
-
 /// Spikes are outliers, a minority: a detection that flags more than this share of the samples
 /// describes the distribution (or a series a removal has altered), not glitches, and is not
 /// proposed. The heaviest contamination among the cases studied is 2.2 % of the samples beyond
@@ -523,7 +508,7 @@ fn run_loop(
         spectrum,
         stochastic: None,
         changed: false,
-        grid: grid_step(y),
+        grid: crate::quality::smallest_step(y).unwrap_or(0.0),
     };
     let initial = figures(state.allan.as_ref(), state.spectrum.as_ref());
     let (base_allan, base_spectrum) = (state.allan.clone(), state.spectrum.clone());
