@@ -6,6 +6,7 @@
 
 use std::path::PathBuf;
 
+use super::stats::SliceScan;
 use super::{
     verdicts, ChannelQuality, ChannelStats, Gap, GapPolicy, NonFinitePolicy, QualityOptions,
     QualityReport, TimeJitter, MAX_LISTED_GAPS,
@@ -295,15 +296,17 @@ impl Cleaner {
         if a >= b {
             return Ok(());
         }
-        let all_finite = block
+        // The statistics' one pass tells whether every sample is finite (their sums are).
+        let scans: Option<Vec<SliceScan>> = block
             .channels
             .iter()
-            .all(|c| c[a..b].iter().all(|x| x.is_finite()));
+            .map(|c| SliceScan::of(&c[a..b]))
+            .collect();
         let last_row = || block.channels.iter().map(|c| c[b - 1]).collect();
-        if all_finite {
-            for (c, values) in block.channels.iter().enumerate() {
+        if let Some(scans) = scans {
+            for ((c, values), scan) in block.channels.iter().enumerate().zip(scans) {
                 let slice = &values[a..b];
-                self.stats[c].push_slice(slice);
+                self.stats[c].push_scanned(slice, scan);
                 if let Some(start) = self.runs[c].start.take() {
                     let from = self.runs[c].last_finite.unwrap_or(slice[0]);
                     interpolate(&mut self.pending[c][start..], from, slice[0]);

@@ -119,22 +119,24 @@ impl ChannelStats {
         }
     }
 
-    /// Adds a slice of finite samples at once: the block's moments about its first sample and its
+    /// Adds a slice of samples at once (finite ones; any other sends the slice through
+    /// [`push`](Self::push) sample by sample): the block's moments about its first sample and its
     /// extremes in one lane-parallel pass (`BlockScan`), merged with Chan et al.'s pairwise update.
     /// Same result as [`push`](Self::push) per sample up to rounding; this is the screen every sample
     /// of every file goes through, so it is written for the vector units (a fold with `f64::min` or a
     /// single running sum would keep them idle).
     pub fn push_slice(&mut self, xs: &[f64]) {
-        if xs.is_empty() {
-            return;
-        }
-        let block = BlockScan::of(xs);
-        if !(block.sum.is_finite() && block.squares.is_finite()) {
+        match SliceScan::of(xs) {
+            Some(scan) => self.push_scanned(xs, scan),
             // A NaN or infinity makes the sums non-finite (so does an overflow, which the
             // per-sample path handles as well).
-            xs.iter().for_each(|&x| self.push(x));
-            return;
+            None => xs.iter().for_each(|&x| self.push(x)),
         }
+    }
+
+    /// Adds the finite slice `xs` that `scan` was made of ([`SliceScan::of`]).
+    pub fn push_scanned(&mut self, xs: &[f64], scan: SliceScan) {
+        let block = scan.0;
         let n_b = xs.len() as f64;
         let mean_dev = block.sum / n_b;
         let mean_b = block.shift + mean_dev;
@@ -146,19 +148,18 @@ impl ChannelStats {
         self.m2 += m2_b + delta * delta * n_a * n_b / n;
         let first = self.count;
         self.count += xs.len() as u64;
-        let (at_min, at_max) = count_equal(xs, block.min, block.max);
         merge_extreme(
             &mut self.min,
             &mut self.at_min,
             block.min,
-            at_min,
+            block.at_min,
             |a, b| a < b,
         );
         merge_extreme(
             &mut self.max,
             &mut self.at_max,
             block.max,
-            at_max,
+            block.at_max,
             |a, b| a > b,
         );
         let joint = self.previous.map_or(f64::INFINITY, |p| (xs[0] - p).abs());
@@ -177,27 +178,35 @@ impl ChannelStats {
             longest = (self.run, first + 1 - self.run);
         }
         let mut run = self.run;
-        // Repeats are rare in a live sensor: a group of neighbours without one only resets the run.
         let windows = xs.len() - 1;
-        for start in (0..windows).step_by(REPEAT_GROUP) {
-            let end = (start + REPEAT_GROUP).min(windows);
-            let (heads, tails) = (&xs[start..end], &xs[start + 1..=end]);
-            if !heads
-                .iter()
-                .zip(tails)
-                .fold(false, |any, (a, b)| any | (a == b))
-            {
+        if !block.repeats {
+            // No two neighbours inside the block are equal: the run ends at its first pair.
+            if windows > 0 {
                 run = 1;
-                continue;
             }
-            for (i, (a, b)) in (start..).zip(heads.iter().zip(tails)) {
-                if a == b {
-                    run += 1;
-                    if run > longest.0 {
-                        longest = (run, first + i as u64 + 2 - run);
-                    }
-                } else {
+        } else {
+            // Repeats are rare in a live sensor: a group of neighbours without one only resets
+            // the run.
+            for start in (0..windows).step_by(REPEAT_GROUP) {
+                let end = (start + REPEAT_GROUP).min(windows);
+                let (heads, tails) = (&xs[start..end], &xs[start + 1..=end]);
+                if !heads
+                    .iter()
+                    .zip(tails)
+                    .fold(false, |any, (a, b)| any | (a == b))
+                {
                     run = 1;
+                    continue;
+                }
+                for (i, (a, b)) in (start..).zip(heads.iter().zip(tails)) {
+                    if a == b {
+                        run += 1;
+                        if run > longest.0 {
+                            longest = (run, first + i as u64 + 2 - run);
+                        }
+                    } else {
+                        run = 1;
+                    }
                 }
             }
         }
@@ -274,88 +283,133 @@ const LANES: usize = 8;
 /// Neighbour pairs checked at once for a repeat before the run is followed pair by pair.
 const REPEAT_GROUP: usize = 64;
 
-/// One block's sums of deviations from its first sample (`shift`), extremes and smallest non-zero
-/// step between neighbours. The shift keeps the sum of squares free of cancellation for a channel
-/// far from zero (its deviations are of the size of the noise), so one pass suffices.
+/// One pass over a block of finite samples, for [`ChannelStats::push_scanned`]: made first, so that
+/// a reader learns that every sample of a block is finite (its sums are) without a pass of its own.
+#[derive(Debug, Clone, Copy)]
+pub struct SliceScan(BlockScan);
+
+impl SliceScan {
+    /// The scan of `xs`; `None` where it is empty or its sums are not finite (a NaN or infinity
+    /// among the samples, or an overflow), which the per-sample path handles.
+    pub fn of(xs: &[f64]) -> Option<SliceScan> {
+        if xs.is_empty() {
+            return None;
+        }
+        let block = BlockScan::of(xs);
+        (block.sum.is_finite() && block.squares.is_finite()).then_some(SliceScan(block))
+    }
+}
+
+/// One block's sums of deviations from its first sample (`shift`), extremes with how many samples
+/// sit on each, smallest non-zero step between neighbours and whether any two are equal. The shift
+/// keeps the sum of squares free of cancellation for a channel far from zero (its deviations are
+/// of the size of the noise), so one pass suffices; everything is gathered in that one pass
+/// (this screen reads every sample of every file, so each extra pass costs a tenth of a Welch
+/// estimate on a long record).
+#[derive(Debug, Clone, Copy)]
 struct BlockScan {
     shift: f64,
     sum: f64,
     squares: f64,
     min: f64,
     max: f64,
+    at_min: u64,
+    at_max: u64,
     smallest_step: f64,
+    repeats: bool,
+}
+
+/// Per-lane accumulators of [`BlockScan::of`].
+struct Lanes {
+    sum: [f64; LANES],
+    squares: [f64; LANES],
+    min: [f64; LANES],
+    max: [f64; LANES],
+    at_min: [u64; LANES],
+    at_max: [u64; LANES],
+    step: [f64; LANES],
+    repeats: [bool; LANES],
+}
+
+impl Lanes {
+    /// Takes sample `x`, whose predecessor is `previous`, into lane `l`.
+    #[inline(always)]
+    fn take(&mut self, l: usize, x: f64, previous: f64, shift: f64) {
+        let d = x - shift;
+        self.sum[l] += d;
+        self.squares[l] += d * d;
+        let below = x < self.min[l];
+        self.at_min[l] = if below {
+            1
+        } else {
+            self.at_min[l] + u64::from(x == self.min[l])
+        };
+        self.min[l] = if below { x } else { self.min[l] };
+        let above = x > self.max[l];
+        self.at_max[l] = if above {
+            1
+        } else {
+            self.at_max[l] + u64::from(x == self.max[l])
+        };
+        self.max[l] = if above { x } else { self.max[l] };
+        let s = (x - previous).abs();
+        self.repeats[l] |= s == 0.0;
+        let s = if s > 0.0 { s } else { f64::INFINITY };
+        self.step[l] = if s < self.step[l] { s } else { self.step[l] };
+    }
 }
 
 impl BlockScan {
-    /// `xs` is non-empty and finite.
+    /// `xs` is non-empty; a non-finite sample leaves non-finite sums (see [`SliceScan::of`]).
     fn of(xs: &[f64]) -> Self {
         let shift = xs[0];
-        let mut sum = [0.0; LANES];
-        let mut squares = [0.0; LANES];
-        let mut min = [f64::INFINITY; LANES];
-        let mut max = [f64::NEG_INFINITY; LANES];
-        let mut step = [f64::INFINITY; LANES];
-        let chunks = xs.chunks_exact(LANES);
-        let rest = chunks.remainder();
-        for c in chunks {
-            for l in 0..LANES {
-                let d = c[l] - shift;
-                sum[l] += d;
-                squares[l] += d * d;
-                min[l] = if c[l] < min[l] { c[l] } else { min[l] };
-                max[l] = if c[l] > max[l] { c[l] } else { max[l] };
-            }
-        }
-        for (l, &x) in rest.iter().enumerate() {
-            let d = x - shift;
-            sum[l] += d;
-            squares[l] += d * d;
-            min[l] = min[l].min(x);
-            max[l] = max[l].max(x);
-        }
+        let mut lanes = Lanes {
+            sum: [0.0; LANES],
+            squares: [0.0; LANES],
+            min: [f64::INFINITY; LANES],
+            max: [f64::NEG_INFINITY; LANES],
+            at_min: [0; LANES],
+            at_max: [0; LANES],
+            step: [f64::INFINITY; LANES],
+            repeats: [false; LANES],
+        };
+        // The first sample has no predecessor: its deviation is 0 and it only sets the extremes.
+        lanes.min[0] = shift;
+        lanes.max[0] = shift;
+        lanes.at_min[0] = 1;
+        lanes.at_max[0] = 1;
+        // Every other sample with its predecessor.
         let (heads, tails) = (&xs[..xs.len() - 1], &xs[1..]);
         let pairs = heads.chunks_exact(LANES).zip(tails.chunks_exact(LANES));
         for (a, b) in pairs {
             for l in 0..LANES {
-                let d = (b[l] - a[l]).abs();
-                let d = if d > 0.0 { d } else { f64::INFINITY };
-                step[l] = if d < step[l] { d } else { step[l] };
+                lanes.take(l, b[l], a[l], shift);
             }
         }
         let done = heads.len() / LANES * LANES;
         for (a, b) in heads[done..].iter().zip(&tails[done..]) {
-            let d = (b - a).abs();
-            if d > 0.0 {
-                step[0] = step[0].min(d);
-            }
+            lanes.take(0, *b, *a, shift);
         }
+        let min = lanes.min.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = lanes.max.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let on = |extremes: &[f64; LANES], counts: &[u64; LANES], value: f64| -> u64 {
+            (0..LANES)
+                .filter(|&l| extremes[l] == value)
+                .map(|l| counts[l])
+                .sum()
+        };
         BlockScan {
             shift,
-            sum: sum.iter().sum(),
-            squares: squares.iter().sum(),
-            min: min.iter().copied().fold(f64::INFINITY, f64::min),
-            max: max.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-            smallest_step: step.iter().copied().fold(f64::INFINITY, f64::min),
+            sum: lanes.sum.iter().sum(),
+            squares: lanes.squares.iter().sum(),
+            min,
+            max,
+            at_min: on(&lanes.min, &lanes.at_min, min),
+            at_max: on(&lanes.max, &lanes.at_max, max),
+            smallest_step: lanes.step.iter().copied().fold(f64::INFINITY, f64::min),
+            repeats: lanes.repeats.iter().any(|&r| r),
         }
     }
-}
-
-/// Samples equal to `min` and to `max`, in one pass.
-fn count_equal(xs: &[f64], min: f64, max: f64) -> (u64, u64) {
-    let mut at = [[0u64; LANES]; 2];
-    let chunks = xs.chunks_exact(LANES);
-    let rest = chunks.remainder();
-    for c in chunks {
-        for l in 0..LANES {
-            at[0][l] += u64::from(c[l] == min);
-            at[1][l] += u64::from(c[l] == max);
-        }
-    }
-    for &x in rest {
-        at[0][0] += u64::from(x == min);
-        at[1][0] += u64::from(x == max);
-    }
-    (at[0].iter().sum(), at[1].iter().sum())
 }
 
 #[cfg(test)]
@@ -413,9 +467,16 @@ mod tests {
             .collect();
         let mut one = ChannelStats::new();
         xs.iter().for_each(|&x| one.push(x));
-        let mut blocks = ChannelStats::new();
-        xs.chunks(333).for_each(|c| blocks.push_slice(c));
-        let (a, b) = (one.summary(), blocks.summary());
+        // Slices of one sample (no neighbour pair inside), two, fewer than the lanes, and many.
+        for size in [1, 2, 7, 333] {
+            let mut blocks = ChannelStats::new();
+            xs.chunks(size).for_each(|c| blocks.push_slice(c));
+            let (a, b) = (one.summary(), blocks.summary());
+            assert_summaries_agree(&a, &b);
+        }
+    }
+
+    fn assert_summaries_agree(a: &ChannelSummary, b: &ChannelSummary) {
         assert!((a.mean - b.mean).abs() < 1e-12 && (a.std - b.std).abs() < 1e-12);
         assert_eq!(
             (a.min, a.max, a.samples_at_min, a.samples_at_max),
@@ -436,9 +497,17 @@ mod tests {
         }
         let mut one = ChannelStats::new();
         xs.iter().for_each(|&x| one.push(x));
-        let mut blocks = ChannelStats::new();
-        xs.chunks(97).for_each(|c| blocks.push_slice(c));
-        for s in [one.summary(), blocks.summary()] {
+        assert_eq!(
+            (
+                one.summary().longest_repeat,
+                one.summary().longest_repeat_start
+            ),
+            (250, 1000)
+        );
+        for size in [1, 5, 97] {
+            let mut blocks = ChannelStats::new();
+            xs.chunks(size).for_each(|c| blocks.push_slice(c));
+            let s = blocks.summary();
             assert_eq!((s.longest_repeat, s.longest_repeat_start), (250, 1000));
         }
     }
