@@ -296,7 +296,10 @@ impl SliceScan {
             return None;
         }
         let block = BlockScan::of(xs);
-        (block.sum.is_finite() && block.squares.is_finite()).then_some(SliceScan(block))
+        // The shift (the first sample) enters the sums only through the others' deviations: a
+        // slice of one non-finite sample has sums of 0.
+        (block.shift.is_finite() && block.sum.is_finite() && block.squares.is_finite())
+            .then_some(SliceScan(block))
     }
 }
 
@@ -467,6 +470,10 @@ mod tests {
             .collect();
         let mut one = ChannelStats::new();
         xs.iter().for_each(|&x| one.push(x));
+        // A slice of one non-finite sample is not taken for a finite one.
+        assert!(SliceScan::of(&[f64::NAN]).is_none());
+        assert!(SliceScan::of(&[f64::INFINITY, 1.0]).is_none());
+        assert!(SliceScan::of(&[1.0, f64::NAN]).is_none());
         // Slices of one sample (no neighbour pair inside), two, fewer than the lanes, and many.
         for size in [1, 2, 7, 333] {
             let mut blocks = ChannelStats::new();
