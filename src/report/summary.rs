@@ -205,10 +205,14 @@ fn file_section(out: &mut String, r: &FileResult) {
 
 /// The read-off and the slope there, as the last two cells of a coefficient row.
 fn read_off_cells(read: Option<&crate::model::ReadOff>, u: crate::model::CoefUnit) -> String {
+    // With its 1σ interval: B's read-off is the minimum over every τ, which can sit at the
+    // longest τ, where a handful of averages leave it uncertain several-fold.
     let value = read.map_or("–".into(), |r| {
         format!(
-            "{} {} at τ = {} s",
+            "{} [{}, {}] {} at τ = {} s",
             sig4(u.from_si(r.value)),
+            sig4(u.from_si(r.lo)),
+            sig4(u.from_si(r.hi)),
             u.pretty(),
             sig4(r.tau_s)
         )
@@ -227,7 +231,8 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
         "\n### Coefficients (combined)\n\nOne value per term: the more precise of the two fits, or \
          the one whose model has the term's neighbours (Q–N–B–K–R) when only one does; the interval \
          spans both fits where they disagree. Read-offs: N = σ(1 s), B = min σ/0.664, K = σ(3 s) \
-         from the Allan deviation (the slope there says whether the term rules it).\n"
+         from the Allan deviation, with the 1σ interval of σ there (the slope there says whether \
+         the term rules it).\n"
     );
     let _ = writeln!(
         out,
