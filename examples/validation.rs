@@ -88,6 +88,11 @@ struct Tally {
     resolution_found: usize,
     resolution_covered: usize,
     resolution_ratios: Vec<f64>,
+    /// Records with a heavy-tail warning, and the ratios of the N it gives with the spikes (and of
+    /// the combined N, without them) to the planted N.
+    heavy_tail_found: usize,
+    heavy_tail_ratios: Vec<f64>,
+    heavy_tail_n_ratios: Vec<f64>,
 }
 
 /// "(K disagrees 12, lack of fit (Allan) 3)".
@@ -265,6 +270,22 @@ fn main() {
             name: "rate output rounded to steps of one white σ (4.36e-4 rad/s)",
             filtered: false,
             extra: json!({ "lsb": 4.363e-4 }),
+            expect: None,
+            seconds: None,
+            rate: None,
+        },
+        Case {
+            name: "heavy-tailed white noise: Student t, 3 degrees of freedom (same N)",
+            filtered: false,
+            extra: json!({ "white_tail_dof": 3.0 }),
+            expect: None,
+            seconds: None,
+            rate: None,
+        },
+        Case {
+            name: "heavy-tailed white noise: Student t, 5 degrees of freedom (same N)",
+            filtered: false,
+            extra: json!({ "white_tail_dof": 5.0 }),
             expect: None,
             seconds: None,
             rate: None,
@@ -495,6 +516,15 @@ fn main() {
                     usize::from(*n_lo <= truths[0].1 && n_hi.is_none_or(|hi| truths[0].1 <= hi));
             }
             c.warnings.extend(rounding);
+            // As `analyze` adds it after the loop.
+            let n_final = c.get(Term::RandomWalk).map(|e| e.value);
+            let tail = o.report.heavy_tail_warning(n_final, y.len(), fs);
+            if let Some(FitWarning::HeavyTail { n, n_with, .. }) = &tail {
+                tally.heavy_tail_found += 1;
+                tally.heavy_tail_ratios.push(n_with / truths[0].1);
+                tally.heavy_tail_n_ratios.push(n / truths[0].1);
+            }
+            c.warnings.extend(tail);
             if verbose {
                 for w in &c.warnings {
                     eprintln!("  warning {}", w.describe());
@@ -513,6 +543,7 @@ fn main() {
                     FitWarning::LoopLimitReached { .. } => "loop limit".to_string(),
                     FitWarning::RivalModel { effect, .. } => format!("rival {effect}"),
                     FitWarning::OutputResolution { .. } => "output resolution".to_string(),
+                    FitWarning::HeavyTail { .. } => "heavy tail".to_string(),
                 });
             }
             if let Some(path) = &dump {
@@ -636,6 +667,16 @@ fn main() {
                 tally.runs,
                 median(&mut tally.resolution_ratios),
                 pct(tally.resolution_covered, tally.resolution_found)
+            ));
+        }
+        if tally.heavy_tail_found > 0 {
+            edge_notes.push(format!(
+                "{}: a heavy-tail warning in {} of {} records; the N it gives with the spikes has a median ratio {:.4} to the planted N, the N without them (the combined value) {:.4}.",
+                case.name,
+                tally.heavy_tail_found,
+                tally.runs,
+                median(&mut tally.heavy_tail_ratios),
+                median(&mut tally.heavy_tail_n_ratios)
             ));
         }
         if tally.ramps > 0 {

@@ -16,7 +16,7 @@ use crate::effects::{close_loop_from_base, AuxSeries, LoopConfig, LoopReport};
 use crate::estimate::{ChannelDeviations, ChannelPsd};
 use crate::model::{
     combine, compare, detect_bandwidth, fit_avar, fit_psd, rounding_warning, Bandwidth, Combined,
-    FitError, FitOptions, NoiseFit, Sensor, TermComparison,
+    FitError, FitOptions, NoiseFit, Sensor, Term, TermComparison,
 };
 
 /// One channel's fits.
@@ -98,11 +98,17 @@ pub fn analyze_channel(
     opts: &FitOptions,
     loop_cfg: Option<&LoopConfig>,
 ) -> ChannelAnalysis {
-    let (step, rate_hz) = (input.output_step, input.rate_hz);
+    let (step, rate_hz, samples) = (input.output_step, input.rate_hz, input.samples.len());
     let mut a = fit_and_close(input, aux, opts, loop_cfg);
     let rounding = step
         .and_then(|h| rounding_warning(h, rate_hz, &a.combined, a.allan_fit(), a.spectrum_fit()));
     a.combined.warnings.extend(rounding);
+    let n = a.combined.get(Term::RandomWalk).map(|t| t.value);
+    let tail = a
+        .residual_loop
+        .as_ref()
+        .and_then(|r| r.heavy_tail_warning(n, samples, rate_hz));
+    a.combined.warnings.extend(tail);
     a
 }
 

@@ -129,6 +129,19 @@ pub enum FitWarning {
         n_hi: Option<f64>,
         angle_q: Option<f64>,
     },
+    /// The `spikes` samples the loop removed are the far end of a tail continuous with the noise
+    /// (`shoulder` samples in the band one σ below the threshold where Gaussian noise puts
+    /// `shoulder_gaussian`): heavy-tailed noise rather than glitches, or glitches whose amplitudes
+    /// reach down into the noise; the data cannot tell. N is the noise's without them; with them
+    /// (their removal's energy added back as white noise) it is `n_with`. See
+    /// [`crate::effects::time::spikes::TailShape`].
+    HeavyTail {
+        spikes: usize,
+        shoulder: usize,
+        shoulder_gaussian: f64,
+        n: f64,
+        n_with: f64,
+    },
 }
 
 impl FitWarning {
@@ -190,6 +203,7 @@ impl FitWarning {
                 },
                 100.0 * super::rival_share(*weight)
             ),
+            FitWarning::HeavyTail { .. } => heavy_tail_line(self, |x| format!("{x:.4e}"), "(SI)"),
             FitWarning::OutputResolution { .. } => {
                 resolution_line(
                     self,
@@ -201,6 +215,28 @@ impl FitWarning {
             }
         }
     }
+}
+
+/// The [`FitWarning::HeavyTail`] sentence, with N's values written by `n` in `unit`.
+pub fn heavy_tail_line(w: &FitWarning, n: impl Fn(f64) -> String, unit: &str) -> String {
+    let FitWarning::HeavyTail {
+        spikes,
+        shoulder,
+        shoulder_gaussian,
+        n: n_without,
+        n_with,
+    } = w
+    else {
+        return String::new();
+    };
+    format!(
+        "the {spikes} spikes removed are the far end of a tail continuous with the noise \
+         ({shoulder} samples in the σ below the threshold, where Gaussian noise puts \
+         {shoulder_gaussian:.1}): heavy-tailed noise, or glitches reaching down into it; N = {} \
+         {unit} is the noise's without them, {} {unit} with them",
+        n(*n_without),
+        n(*n_with)
+    )
 }
 
 /// The [`FitWarning::OutputResolution`] sentence, with N's values written by `n` in `unit`, the

@@ -81,7 +81,8 @@ pub use avar_fit::{fit_avar, fit_avar_with};
 pub use average::{average_with_rival, rival_share};
 pub use bandwidth::{detect_bandwidth, Bandwidth, FilterForm, LowPass, BAND_BIAS};
 pub use combine::{
-    combine, read_offs, resolution_line, upper_limit, Combined, CombinedTerm, FitWarning, ReadOff,
+    combine, heavy_tail_line, read_offs, resolution_line, upper_limit, Combined, CombinedTerm,
+    FitWarning, ReadOff,
 };
 pub use compare::{compare, TermComparison};
 pub use effect::EffectShape;

@@ -542,6 +542,10 @@ pub fn warning_line(w: &FitWarning, sensor: Sensor) -> String {
                  worst at {range}; intervals widened ×{inflation:.2}"
             )
         }
+        FitWarning::HeavyTail { .. } => {
+            let [_, u, _] = units_of(sensor, Term::RandomWalk);
+            crate::model::heavy_tail_line(w, |x| sig4(u.from_si(x)), &u.pretty())
+        }
         FitWarning::OutputResolution { .. } => {
             let [_, u, _] = units_of(sensor, Term::RandomWalk);
             let [_, uq, _] = units_of(sensor, Term::Quantization);
@@ -672,6 +676,7 @@ mod tests {
                 sigma: 1.0,
                 variance_share: 0.01,
                 delta_bic: -10.0,
+                tail: Default::default(),
                 removal: vec![1.0; n],
             })
         };

@@ -6,6 +6,7 @@ use super::flicker::flicker;
 use super::lowpass::apply_lowpass;
 use super::processes::{
     add_drift, add_gauss_markov, add_ramp, add_random_walk, add_resonance, add_sinusoid, add_white,
+    add_white_student,
 };
 use super::quantize::quantize;
 use super::rng::Rng;
@@ -108,12 +109,11 @@ pub fn simulate_channel(
         *v += spec.bias;
     }
     if c.n > 0.0 {
-        add_white(
-            &mut y,
-            rate_hz,
-            c.n,
-            &mut rng_for(channel_seed, Component::White, 0),
-        );
+        let mut rng = rng_for(channel_seed, Component::White, 0);
+        match spec.white_tail_dof {
+            Some(dof) => add_white_student(&mut y, rate_hz, c.n, dof, &mut rng),
+            None => add_white(&mut y, rate_hz, c.n, &mut rng),
+        }
     }
     if c.k > 0.0 {
         let mut rng = rng_for(channel_seed, Component::RandomWalk, 0);

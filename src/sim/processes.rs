@@ -22,6 +22,36 @@ pub fn add_white(y: &mut [f64], rate_hz: f64, n: f64, rng: &mut Rng) {
     }
 }
 
+/// White noise of density `n` (rate σ = n·√f_s) drawn from Student's t with `dof` (> 2) degrees of
+/// freedom, scaled to unit variance: the same N as [`add_white`], with heavy tails (excess
+/// kurtosis 6/(dof − 4) for dof > 4, unbounded below).
+pub fn add_white_student(y: &mut [f64], rate_hz: f64, n: f64, dof: f64, rng: &mut Rng) {
+    let sigma = n * rate_hz.sqrt() * ((dof - 2.0) / dof).sqrt();
+    for v in y {
+        // t = Z/√(V/ν) with V ~ χ²_ν = 2·Gamma(ν/2).
+        let z = rng.gauss();
+        let chi2 = 2.0 * gamma(dof / 2.0, rng);
+        *v += sigma * z / (chi2 / dof).sqrt();
+    }
+}
+
+/// A Gamma(`shape`, 1) draw, `shape` ≥ 1 (Marsaglia and Tsang, ACM TOMS 26(3), 2000).
+fn gamma(shape: f64, rng: &mut Rng) -> f64 {
+    let d = shape - 1.0 / 3.0;
+    let c = 1.0 / (9.0 * d).sqrt();
+    loop {
+        let x = rng.gauss();
+        let v = (1.0 + c * x).powi(3);
+        if v <= 0.0 {
+            continue;
+        }
+        let u = rng.uniform();
+        if u > 0.0 && u.ln() < 0.5 * x * x + d - d * v + d * v.ln() {
+            return d * v;
+        }
+    }
+}
+
 /// Rate random walk with AV k²τ/3 (continuous Brownian rate, from zero at t = 0). Over an
 /// interval the rate moves by ΔW ~ N(0, k²τ₀), and its mean is W_start + ΔW/2 + ξ where ξ, the
 /// mean of the Brownian bridge, is N(0, k²τ₀/12) and independent of ΔW. (Point samples of the

@@ -80,6 +80,11 @@ pub struct ChannelSpec {
     /// `None` (or 0): not rounded.
     #[serde(default)]
     pub lsb: Option<f64>,
+    /// Heavy-tailed white noise: the white term (N) drawn from Student's t with this many degrees
+    /// of freedom (> 2), scaled to the same variance N²·f_s, so that every sample, however far
+    /// out, belongs to the noise (no outliers). `None`: Gaussian.
+    #[serde(default)]
+    pub white_tail_dof: Option<f64>,
 }
 
 /// A Butterworth low-pass of `order` with its −3 dB corner at `corner_hz` (below Nyquist),
@@ -108,6 +113,7 @@ impl ChannelSpec {
             drift: None,
             lowpass: None,
             lsb: None,
+            white_tail_dof: None,
         }
     }
 }
@@ -318,6 +324,11 @@ impl SimSpec {
             }
             if let Some(lsb) = ch.lsb {
                 non_negative("lsb", lsb)?;
+            }
+            if let Some(dof) = ch.white_tail_dof {
+                if !(dof.is_finite() && dof > 2.0) {
+                    return Err(bad("white_tail_dof", dof));
+                }
             }
             for st in &ch.steps {
                 non_negative("steps.time_s", st.time_s)?;

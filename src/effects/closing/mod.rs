@@ -268,6 +268,39 @@ impl LoopReport {
         });
         limit.into_iter().chain(rival).collect()
     }
+
+    /// The [`FitWarning::HeavyTail`] of a loop that removed spikes ending a tail continuous with
+    /// the noise ([`crate::effects::time::spikes::TailShape`]), given the final N (`n`, SI) of a
+    /// record of `samples` at `rate_hz`: N with them adds their removal's energy back as white
+    /// noise, √(N² + Σ removal²/(n·f_s)) (a white σ² per sample is N²·f_s).
+    pub fn heavy_tail_warning(
+        &self,
+        n: Option<f64>,
+        samples: usize,
+        rate_hz: f64,
+    ) -> Option<FitWarning> {
+        let tails: Vec<&Spikes> = self
+            .steps
+            .iter()
+            .filter_map(|s| match &s.effect {
+                Effect::Spikes(spikes) if spikes.tail.continuous => Some(spikes),
+                _ => None,
+            })
+            .collect();
+        let first = tails.first()?;
+        let n = n?;
+        if !(samples > 0 && rate_hz > 0.0) {
+            return None;
+        }
+        let energy: f64 = tails.iter().flat_map(|s| &s.removal).map(|e| e * e).sum();
+        Some(FitWarning::HeavyTail {
+            spikes: tails.iter().map(|s| s.indices.len()).sum(),
+            shoulder: first.tail.shoulder,
+            shoulder_gaussian: first.tail.shoulder_gaussian,
+            n,
+            n_with: (n * n + energy / (samples as f64 * rate_hz)).sqrt(),
+        })
+    }
 }
 
 /// The stochastic effect in the model.
