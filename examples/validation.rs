@@ -299,6 +299,22 @@ fn main() {
             rate: None,
         },
         Case {
+            name: "warm-up drift, no temperature channel: bias settling from 30 °/h with Tc 300 s",
+            filtered: false,
+            extra: json!({ "drift": { "exponential": { "amplitude": CoefUnit::DegPerH.to_si(30.0), "tc_s": 300.0 } } }),
+            expect: Some("drift"),
+            seconds: None,
+            rate: None,
+        },
+        Case {
+            name: "warm-up drift, no temperature channel: bias settling from 100 °/h with Tc 300 s",
+            filtered: false,
+            extra: json!({ "drift": { "exponential": { "amplitude": CoefUnit::DegPerH.to_si(100.0), "tc_s": 300.0 } } }),
+            expect: Some("drift"),
+            seconds: None,
+            rate: None,
+        },
+        Case {
             name: "bias step: +10σ (10-s means) at 600 s",
             filtered: false,
             extra: json!({ "steps": [{ "time_s": 600.0, "size": EXCURSION }] }),

@@ -62,8 +62,11 @@ pub fn average_with_rival(fit: &NoiseFit, rival: &NoiseFit, weight: f64) -> Nois
         let edf = coefficient_interval(mean, var, fit.confidence).2;
         let mixture = [(1.0, c0, v0), (weight, c1, v1)];
         let q = (1.0 - fit.confidence) / 2.0;
-        let lo = mixture_quantile(&mixture, q);
-        let hi = mixture_quantile(&mixture, 1.0 - q);
+        // An interval always holds its estimate: where a model's ν is well below 1 its inverted
+        // χ² crowds its quantiles above the reading (K 4.6e-7 was printed with [2.3e-3, 1.1] on
+        // a clean record), as in [`coefficient_interval`].
+        let lo = mixture_quantile(&mixture, q).min(mean);
+        let hi = mixture_quantile(&mixture, 1.0 - q).max(mean);
         (e.value, e.lo, e.hi, e.edf) = (mean.sqrt(), lo.sqrt(), hi.sqrt(), edf);
     }
     out
@@ -210,6 +213,16 @@ mod tests {
             matched_lo > 2.0,
             "moment matching alone would start at {matched_lo}"
         );
+
+        // A term its fit hardly determines (ν = 0.02, as a 30-min record's K can be): averaged
+        // with a rival that lacks it, its interval still holds the averaged value.
+        let vague = fit_of(&[
+            (Term::RandomWalk, 1.0, 1e4),
+            (Term::RateRandomWalk, 1.0, 0.02),
+        ]);
+        let k = average_with_rival(&vague, &rival, bic_weight(8.0)).estimates[1];
+        assert!(k.lo <= k.value && k.value <= k.hi, "{k:?}");
+        assert!(k.hi > k.value, "{k:?}");
 
         // The rival ahead (ΔBIC −4, weight e²): the value leans to its reading.
         let ahead = average_with_rival(&base, &rival, bic_weight(-4.0));
