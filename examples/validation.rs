@@ -275,6 +275,14 @@ fn main() {
             rate: None,
         },
         Case {
+            name: "band-limited bias instability: 1/f only above 16 mHz (a bias correlated over ≈ 10 s)",
+            filtered: false,
+            extra: json!({ "flicker_corner_hz": 1.0 / (2.0 * std::f64::consts::PI * 10.0) }),
+            expect: None,
+            seconds: None,
+            rate: None,
+        },
+        Case {
             name: "heavy-tailed white noise: Student t, 3 degrees of freedom (same N)",
             filtered: false,
             extra: json!({ "white_tail_dof": 3.0 }),

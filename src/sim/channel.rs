@@ -2,7 +2,7 @@
 
 use crate::model::{Coefficients, GaussMarkov, Sinusoid};
 
-use super::flicker::flicker;
+use super::flicker::{band_limited_flicker, flicker};
 use super::lowpass::apply_lowpass;
 use super::processes::{
     add_drift, add_gauss_markov, add_ramp, add_random_walk, add_resonance, add_sinusoid, add_white,
@@ -96,12 +96,11 @@ pub fn simulate_channel(
 ) -> Vec<f64> {
     let c = &spec.noise;
     let mut y = if c.b > 0.0 {
-        flicker(
-            n,
-            rate_hz,
-            c.b,
-            &mut rng_for(channel_seed, Component::Flicker, 0),
-        )
+        let mut rng = rng_for(channel_seed, Component::Flicker, 0);
+        match spec.flicker_corner_hz {
+            Some(corner) => band_limited_flicker(n, rate_hz, c.b, corner, &mut rng),
+            None => flicker(n, rate_hz, c.b, &mut rng),
+        }
     } else {
         vec![0.0; n]
     };

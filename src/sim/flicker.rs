@@ -64,6 +64,27 @@ pub fn flicker(n: usize, rate_hz: f64, b: f64, rng: &mut Rng) -> Vec<f64> {
     shaped_noise(n, rate_hz, flicker_shape(rate_hz, b), rng)
 }
 
+/// [`flicker`] whose density stops rising below `corner_hz`: flat there at its value at the
+/// corner. A bias that wanders over a finite correlation time (≈ 1/(2π·corner)), as a sum of a
+/// few Gauss–Markov processes does: 1/f only above the corner, so that the Allan deviation leaves
+/// its plateau for a fall (as τ^(−½)) beyond τ ≈ 1/(2·corner) instead of staying flat.
+pub fn band_limited_flicker(
+    n: usize,
+    rate_hz: f64,
+    b: f64,
+    corner_hz: f64,
+    rng: &mut Rng,
+) -> Vec<f64> {
+    let shape = flicker_shape(rate_hz, b);
+    let floor = shape(corner_hz);
+    shaped_noise(
+        n,
+        rate_hz,
+        move |f| if f < corner_hz { floor } else { shape(f) },
+        rng,
+    )
+}
+
 /// b² times the sampled flicker form, f ↦ S(f).
 ///
 /// The sampled form costs two Hurwitz sums per bin, too slow for the tens of millions of bins of

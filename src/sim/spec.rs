@@ -85,6 +85,11 @@ pub struct ChannelSpec {
     /// out, belongs to the noise (no outliers). `None`: Gaussian.
     #[serde(default)]
     pub white_tail_dof: Option<f64>,
+    /// Band-limited bias instability: below this frequency (Hz) the flicker's density stays at
+    /// its value there instead of rising as 1/f (a bias correlated over ≈ 1/(2π·corner) s, as a
+    /// sum of Gauss–Markov processes makes it). `None`: 1/f down to the record's length.
+    #[serde(default)]
+    pub flicker_corner_hz: Option<f64>,
 }
 
 /// A Butterworth low-pass of `order` with its −3 dB corner at `corner_hz` (below Nyquist),
@@ -114,6 +119,7 @@ impl ChannelSpec {
             lowpass: None,
             lsb: None,
             white_tail_dof: None,
+            flicker_corner_hz: None,
         }
     }
 }
@@ -324,6 +330,11 @@ impl SimSpec {
             }
             if let Some(lsb) = ch.lsb {
                 non_negative("lsb", lsb)?;
+            }
+            if let Some(corner) = ch.flicker_corner_hz {
+                if !(corner.is_finite() && corner > 0.0 && corner < nyquist_hz) {
+                    return Err(bad("flicker_corner_hz", corner));
+                }
             }
             if let Some(dof) = ch.white_tail_dof {
                 if !(dof.is_finite() && dof > 2.0) {
