@@ -540,31 +540,9 @@ fn coarse_digital_outputs_are_read_as_what_they_are() {
               "noise": { "q": 4.363e-6, "n": n, "b": b, "k": k } } ] });
     let (e, doc) = simulate_and_analyze(dir.path(), &spec);
     let file = &doc["files"][0];
-    let analysis = |name: &str| {
-        file["analysis"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|a| a["channel"] == name)
-            .unwrap_or_else(|| panic!("{name} not analysed"))
-            .clone()
-    };
-    let resolution = |name: &str| {
-        analysis(name)["combined"]["warnings"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|w| w["kind"] == "output_resolution")
-            .cloned()
-    };
-    let term = |name: &str, symbol: &str| {
-        analysis(name)["combined"]["terms"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|t| t["term"] == symbol)
-            .map(|t| t["value"].as_f64().unwrap())
-    };
+    let analysis = |name: &str| channel_analysis(&doc, name);
+    let resolution = |name: &str| combined_warning(&doc, name, "output_resolution");
+    let term = |name: &str, symbol: &str| combined_value(&doc, name, symbol);
     assert!(resolution("fine").is_none());
 
     let w = resolution("rounded").expect("a warning on the rounded axis");
@@ -630,32 +608,8 @@ fn heavy_tailed_noise_is_told_from_glitches() {
             { "name": "glitches", "sensor": "gyro", "noise": noise,
               "spikes": { "count": 1800, "size": 8.0 * n * 10.0 } } ] });
     let (e, doc) = simulate_and_analyze(dir.path(), &spec);
-    let analysis = |name: &str| {
-        doc["files"][0]["analysis"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|a| a["channel"] == name)
-            .unwrap_or_else(|| panic!("{name} not analysed"))
-            .clone()
-    };
-    let warning = |name: &str| {
-        analysis(name)["combined"]["warnings"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|w| w["kind"] == "heavy_tail")
-            .cloned()
-    };
-    let n_of = |name: &str| {
-        analysis(name)["combined"]["terms"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|t| t["term"] == "random_walk")
-            .map(|t| t["value"].as_f64().unwrap())
-            .unwrap()
-    };
+    let warning = |name: &str| combined_warning(&doc, name, "heavy_tail");
+    let n_of = |name: &str| combined_value(&doc, name, "random_walk").unwrap();
     let w = warning("tails").expect("a heavy-tail warning on the Student-t axis");
     let with = w["n_with"].as_f64().unwrap();
     assert!((with / n - 1.0).abs() < 0.04, "N with the tail {with}");

@@ -186,3 +186,38 @@ pub fn simulate_and_analyze(dir: &Path, spec: &serde_json::Value) -> (String, se
             .unwrap();
     (String::from_utf8_lossy(&out.stderr).into_owned(), report)
 }
+
+/// The `analysis` entry of channel `name` in the first file of an `analyze` report.
+pub fn channel_analysis(report: &serde_json::Value, name: &str) -> serde_json::Value {
+    report["files"][0]["analysis"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|a| a["channel"] == name)
+        .unwrap_or_else(|| panic!("{name} not analysed"))
+        .clone()
+}
+
+/// The combined result's first warning of `kind` on channel `name`.
+pub fn combined_warning(
+    report: &serde_json::Value,
+    name: &str,
+    kind: &str,
+) -> Option<serde_json::Value> {
+    channel_analysis(report, name)["combined"]["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|w| w["kind"] == kind)
+        .cloned()
+}
+
+/// The combined value of `term` (report.json's name, e.g. `random_walk`) on channel `name`.
+pub fn combined_value(report: &serde_json::Value, name: &str, term: &str) -> Option<f64> {
+    channel_analysis(report, name)["combined"]["terms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["term"] == term)
+        .map(|t| t["value"].as_f64().unwrap())
+}
