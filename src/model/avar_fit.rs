@@ -169,9 +169,9 @@ pub fn fit_avar_with(
 /// summing their squares for white noise gives, with r = M/m, Var(mean δ)/μ_N = (4/3)/r² for
 /// r ≥ 2 (the first and last m averages), (4/3 − (2 − r)³/3)/r² for 1 ≤ r ≤ 2 and 2 − r for
 /// r ≤ 1 (checked against the explicit sum of squared weights in the tests). Carried on below
-/// r = 2 as (4/3)/r², the first form made the last octave's point of a 6-h record 740 times too
-/// uncertain: its EDF fell to 0.02, where the cube-root residual means nothing, and a clean
-/// record read a lack of fit there. Negligible at short τ, the term dominates the scatter of the
+/// r = 2 as (4/3)/r², the first form put 190 times the cross variance on the last octave's point
+/// of a 6-h record (r = 0.06): its EDF fell to 0.02, where the cube-root residual means nothing,
+/// and a clean record read a lack of fit there. Negligible at short τ, the term dominates the scatter of the
 /// longest τ, where M is a few m. The white-noise form is used for any noise (red noise makes the
 /// two ends of the record differ more: an underestimate there).
 fn cross_factor(d: &Deviations, i: usize) -> f64 {
