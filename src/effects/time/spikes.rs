@@ -105,10 +105,10 @@ pub struct Spikes {
 /// hardly any where the noise would not). Heavy-tailed noise (Student's t of 3–5 degrees of
 /// freedom) instead has a density that falls steadily through t: its shoulder holds tens of
 /// times the Gaussian count, more than the band above, and the samples beyond t are its own far
-/// end. Removing them as outliers took 6–24 % of the white variance out of N (t with 5 and 3
-/// degrees of freedom). They are still counted as spikes (a contamination whose amplitudes reach
-/// down into the noise looks the same), but the report says so and gives N with them
-/// (`heavy_tail` warning).
+/// end. Removing them as outliers took 5 % and 26 % of the white variance out of N² (t with 5
+/// and 3 degrees of freedom; validation medians). They are still counted as spikes (a
+/// contamination whose amplitudes reach down into the noise looks the same), but the report says
+/// so and gives N with them (`heavy_tail` warning).
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
 pub struct TailShape {
     pub shoulder: usize,
