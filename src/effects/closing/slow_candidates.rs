@@ -36,10 +36,11 @@ const REFINE_PASSES: usize = 4;
 /// falling, for at most [`REFINE_PASSES`] passes; `first` where the first pass fails.
 ///
 /// **Why iterate.** A large effect inflates the random walk of the fit it is tested under, which
-/// hides it: a 100 °/h warm-up (Tc 300 s) in a 30-min record under a fit whose K had taken it in
-/// (3× the truth) read p = 2.8e-3 after one pass, not below the 1e-3 it needs, in 11 of 50
-/// records, and K stayed at 2–3×. Each pass takes the effect out of the noise model a little
-/// more; the passes stop when the evidence stops growing.
+/// hides it: after one pass a 100 °/h warm-up (Tc 300 s) in 30-min records was missed in 11 of 50
+/// (one read p = 2.8e-3 against the 1e-3 it needs, under a fit whose K had taken the drift in,
+/// 3× the truth), and K stayed at 2–3× there. Each pass takes the effect out of the noise model
+/// a little more; the passes stop when the evidence stops growing. Missed in 8 of 50 with them
+/// (`validation/`).
 pub(super) fn refined<T>(
     state: &State,
     fs: f64,
