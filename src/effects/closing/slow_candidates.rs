@@ -29,18 +29,20 @@ pub(super) type Density<'a> = &'a dyn Fn(f64) -> f64;
 /// Passes of feasible GLS at most (see [`refined`]).
 const REFINE_PASSES: usize = 4;
 
-/// Iterated feasible GLS, for a first estimate with some evidence (its p-value below
-/// [`REFINE_P`], or that times its family: the callers' test): `estimate` (a slow effect under a
-/// noise density) again under the Allan fit of the series with the current estimate removed by
-/// `remove`: the first pass's estimate, then each later one while its p-value (`p_of`) keeps
-/// falling, for at most [`REFINE_PASSES`] passes; `first` where the first pass fails.
+/// Feasible GLS, for a first estimate with some evidence (its p-value below [`REFINE_P`], or
+/// that times its family: the callers' test): `estimate` (a slow effect under a noise density)
+/// again under the Allan fit of the series with the current estimate removed by `remove`. One
+/// pass, or with `iterate` (its p-value) further passes while that keeps falling and stays below
+/// [`REFINE_P`], at most [`REFINE_PASSES`]; `first` where the first pass fails.
 ///
-/// **Why iterate.** A large effect inflates the random walk of the fit it is tested under, which
-/// hides it: after one pass a 100 °/h warm-up (Tc 300 s) in 30-min records was missed in 11 of 50
-/// (one read p = 2.8e-3 against the 1e-3 it needs, under a fit whose K had taken the drift in,
-/// 3× the truth), and K stayed at 2–3× there. Each pass takes the effect out of the noise model
-/// a little more; the passes stop when the evidence stops growing. Missed in 8 of 50 with them
-/// (`validation/`).
+/// **Why iterate a drift.** A large effect inflates the random walk of the fit it is tested
+/// under, which hides it: after one pass a 100 °/h warm-up (Tc 300 s) in 30-min records was
+/// missed in 11 of 50 (one read p = 2.8e-3 against the 1e-3 it needs, under a fit whose K had
+/// taken the drift in, 3× the truth), and K stayed at 2–3× there. Each pass takes the effect out
+/// of the noise model a little more: missed in 8 of 50 with them (`validation/`). Each pass costs
+/// an Allan variance and a fit of the whole record, so only the drift iterates: iterating the
+/// steps, excursions and couplings as well found nothing more in the validation and cost a fleet
+/// screen 18 % of its throughput.
 pub(super) fn refined<T>(
     state: &State,
     fs: f64,
@@ -48,19 +50,27 @@ pub(super) fn refined<T>(
     first: T,
     estimate: &dyn Fn(Density<'_>) -> Option<T>,
     remove: &dyn Fn(&mut Vec<f64>, &T),
-    p_of: &dyn Fn(&T) -> f64,
+    iterate: Option<&dyn Fn(&T) -> f64>,
 ) -> T {
     let mut current = first;
-    for pass in 0..REFINE_PASSES {
+    let passes = if iterate.is_some() { REFINE_PASSES } else { 1 };
+    for pass in 0..passes {
         let next = allan_without(state, fs, cfg, &|v: &mut Vec<f64>| remove(v, &current))
             .and_then(|fit| estimate(&noise_density(&fit, state.stochastic.as_ref(), fs)));
         let Some(next) = next else { break };
         // The first pass replaces the estimate made under the fit that holds the effect; a later
         // one only while the evidence grows.
-        if pass > 0 && p_of(&next) >= p_of(&current) {
-            break;
+        if let Some(p_of) = iterate {
+            if pass > 0 && p_of(&next) >= p_of(&current) {
+                break;
+            }
+            current = next;
+            if p_of(&current) >= REFINE_P {
+                break;
+            }
+        } else {
+            current = next;
         }
-        current = next;
     }
     current
 }
@@ -103,7 +113,7 @@ pub(super) fn slow_candidates(
                 first,
                 &estimate,
                 &|v, c| remove_coupling(v, a.samples, c),
-                &|c| c.p_value,
+                None,
             )
         } else {
             first
@@ -157,6 +167,8 @@ pub(super) fn slow_candidates(
 /// A slow effect the time domain finds under the fitted noise model (a drift, a GLS step, an
 /// excursion): what [`slow_candidate`] needs to refine it and offer it.
 pub(super) trait SlowEffect: Clone + Send + 'static {
+    /// Whether its feasible GLS iterates (see [`refined`]).
+    const ITERATE: bool = false;
     fn p_value(&self) -> f64;
     fn delta_bic(&self) -> f64;
     fn evidence(&self) -> String;
@@ -165,6 +177,7 @@ pub(super) trait SlowEffect: Clone + Send + 'static {
 }
 
 impl SlowEffect for Drift {
+    const ITERATE: bool = true;
     fn p_value(&self) -> f64 {
         self.p_value
     }
@@ -244,7 +257,7 @@ pub(super) fn slow_candidate<T: SlowEffect>(
             first,
             estimate,
             &|v, e: &T| e.remove(v, fs),
-            &|e: &T| e.p_value(),
+            T::ITERATE.then_some(&|e: &T| e.p_value()),
         )
     } else {
         first
