@@ -9,16 +9,19 @@ use super::*;
 pub(super) const REFINE_P: f64 = 0.05;
 
 /// The Allan fit of the current series after `correct`: the noise model with a slow effect taken
-/// out.
+/// out. `work` holds the corrected copy (reused across passes, so that each does not allocate
+/// and fault in a record-length buffer afresh).
 pub(super) fn allan_without(
     state: &State,
     fs: f64,
     cfg: &LoopConfig,
     correct: &dyn Fn(&mut Vec<f64>),
+    work: &mut Vec<f64>,
 ) -> Option<NoiseFit> {
-    let mut y = state.y.to_vec();
-    correct(&mut y);
-    let dev = compute(&y, fs, &cfg.taus, Statistic::Oadev, cfg.confidence).ok()?;
+    work.clear();
+    work.extend_from_slice(&state.y);
+    correct(work);
+    let dev = compute(work, fs, &cfg.taus, Statistic::Oadev, cfg.confidence).ok()?;
     let shape = state.stochastic.as_ref().map(Stochastic::shape);
     fit_avar_with(&dev, &cfg.fit, shape).ok()
 }
@@ -53,23 +56,21 @@ pub(super) fn refined<T>(
     iterate: Option<&dyn Fn(&T) -> f64>,
 ) -> T {
     let mut current = first;
+    let mut work = Vec::new();
     let passes = if iterate.is_some() { REFINE_PASSES } else { 1 };
     for pass in 0..passes {
-        let next = allan_without(state, fs, cfg, &|v: &mut Vec<f64>| remove(v, &current))
+        let correct = |v: &mut Vec<f64>| remove(v, &current);
+        let next = allan_without(state, fs, cfg, &correct, &mut work)
             .and_then(|fit| estimate(&noise_density(&fit, state.stochastic.as_ref(), fs)));
         let Some(next) = next else { break };
         // The first pass replaces the estimate made under the fit that holds the effect; a later
-        // one only while the evidence grows.
-        if let Some(p_of) = iterate {
-            if pass > 0 && p_of(&next) >= p_of(&current) {
-                break;
-            }
-            current = next;
-            if p_of(&current) >= REFINE_P {
-                break;
-            }
-        } else {
-            current = next;
+        // one only while the evidence grows, and none once it has none left to grow from.
+        if pass > 0 && iterate.is_some_and(|p_of| p_of(&next) >= p_of(&current)) {
+            break;
+        }
+        current = next;
+        if iterate.is_some_and(|p_of| p_of(&current) >= REFINE_P) {
+            break;
         }
     }
     current
