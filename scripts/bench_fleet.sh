@@ -38,11 +38,14 @@ seq 1 "$N" | xargs -P "$(nproc)" -I{} bash -c 'generate {}'
 rm -rf "$WORK/out"
 echo "screen of $N sensors (6 channels, 1 h at 200 Hz each) on $(nproc) cores, backend $BACKEND, $THREADS file(s) at once:"
 # Timed by the parent (wait4), so that no GNU time is needed: wall, CPU and peak resident memory.
-python3 - "$BIN" screen "$WORK/in" -o "$WORK/out" --backend "$BACKEND" --threads "$THREADS" --quiet <<'PY'
+# Not --quiet: the screen's last lines give the time by stage (read, estimate, fit, write),
+# printed below; its per-file lines go to $WORK/screen.log.
+python3 - "$BIN" screen "$WORK/in" -o "$WORK/out" --backend "$BACKEND" --threads "$THREADS" <<'PY'
 import os, subprocess, sys, time
 n = int(os.environ["N"])
+log = open(os.path.join(os.environ["WORK"], "screen.log"), "w")
 t0 = time.perf_counter()
-p = subprocess.Popen(sys.argv[1:])
+p = subprocess.Popen(sys.argv[1:], stderr=log)
 _, status, ru = os.wait4(p.pid, 0)
 wall = time.perf_counter() - t0
 code = os.waitstatus_to_exitcode(status)
@@ -50,3 +53,4 @@ print(f"{wall:.2f} s wall, {ru.ru_utime:.1f} s user, {ru.ru_stime:.1f} s system,
       f"{ru.ru_maxrss / 1024:.0f} MiB peak resident, exit status {code}")
 print(f"{n / wall:.3f} sensors/s, {wall / n:.2f} s per sensor")
 PY
+grep -E "^(time of|imunoise: backend)" "$WORK/screen.log" || true

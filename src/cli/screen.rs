@@ -346,6 +346,7 @@ impl Observer for Report {
                 seconds,
                 records,
                 notes,
+                ..
             } => {
                 if let Some(e) = outcome.error() {
                     if e.contains(&path.to_string()) {
@@ -516,6 +517,13 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
                 String::new()
             }
         );
+        if batch.computed > 0 {
+            eprintln!(
+                "time of the {} files computed, summed over files: {}",
+                batch.computed,
+                batch.time.describe()
+            );
+        }
         let missing = fleet
             .shards_not_run()
             .map_or(String::new(), |k| format!(", shards not run yet: {k}"));

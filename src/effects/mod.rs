@@ -25,5 +25,6 @@ pub mod time;
 
 pub use closing::{
     close_loop, close_loop_from_base, AuxSeries, BaseFits, Effect, ErrorFigures, LoopConfig,
-    LoopOutcome, LoopReport, LoopStep, Rejected, Rival, MAX_STEPS, RIVAL_WARNING_SHARE,
+    LoopOutcome, LoopReport, LoopStep, Rejected, Rival, MAX_STEPS, RIVAL_SLOW_P,
+    RIVAL_WARNING_SHARE,
 };

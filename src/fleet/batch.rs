@@ -84,6 +84,8 @@ pub enum FileOutcome {
     /// Analysed (or failed) now and written.
     Computed {
         seconds: f64,
+        /// `seconds` by stage (the stages of a file that failed to read are 0).
+        time: StageTimes,
         records: Vec<ChannelRecord>,
         /// Things that went wrong beside the result (a plot that could not be written).
         notes: Vec<String>,
@@ -130,8 +132,47 @@ impl pipeline::Progress for FileProgress<'_> {
     }
 }
 
+/// Where the analysed files' time went, summed over the files (seconds of each file's own
+/// stages; files analysed at once overlap, so the sum exceeds the wall time by about the number
+/// of threads). What a fleet's throughput is made of: `read_s` includes the screening and the
+/// Welch updates streamed while reading, `estimate_s` finishing the Welch estimate and the Allan
+/// statistics, `fit_s` the fits and the residual loop, `write_s` the file's plots and its part
+/// file.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StageTimes {
+    pub read_s: f64,
+    pub estimate_s: f64,
+    pub fit_s: f64,
+    pub write_s: f64,
+}
+
+impl StageTimes {
+    fn add(&mut self, o: &StageTimes) {
+        self.read_s += o.read_s;
+        self.estimate_s += o.estimate_s;
+        self.fit_s += o.fit_s;
+        self.write_s += o.write_s;
+    }
+
+    /// "read 1.2 s (30 %), estimate …": each stage with its share of the total.
+    pub fn describe(&self) -> String {
+        let total = self.read_s + self.estimate_s + self.fit_s + self.write_s;
+        let share = |x: f64| if total > 0.0 { 100.0 * x / total } else { 0.0 };
+        [
+            ("read and screen", self.read_s),
+            ("estimate", self.estimate_s),
+            ("fit and loop", self.fit_s),
+            ("write", self.write_s),
+        ]
+        .iter()
+        .map(|(what, s)| format!("{what} {s:.1} s ({:.0} %)", share(*s)))
+        .collect::<Vec<_>>()
+        .join(", ")
+    }
+}
+
 /// Counts of a shard's batch.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct BatchSummary {
     /// Inputs of this shard.
     pub total: usize,
@@ -142,6 +183,8 @@ pub struct BatchSummary {
     pub failed: usize,
     /// Part files of inputs no longer in the run, deleted from this shard's folder.
     pub pruned: usize,
+    /// The computed files' time by stage.
+    pub time: StageTimes,
 }
 
 /// Runs shard `cfg.shard` of `all` (every input of the run, in order): writes the manifest,
@@ -179,7 +222,10 @@ pub fn run_batch(
                 {
                     let mut s = summary.lock().unwrap_or_else(|e| e.into_inner());
                     match &outcome {
-                        FileOutcome::Computed { .. } => s.computed += 1,
+                        FileOutcome::Computed { time, .. } => {
+                            s.computed += 1;
+                            s.time.add(time);
+                        }
                         FileOutcome::Skipped { .. } => s.skipped += 1,
                         FileOutcome::Adopted { .. } => s.adopted += 1,
                     }
@@ -276,6 +322,7 @@ fn process(
     });
     // Timed from admission: the wait for room is not this file's analysis.
     let t = Instant::now();
+    let mut time = StageTimes::default();
     let records = match &identity {
         Err(e) => vec![ChannelRecord::error(
             input,
@@ -289,6 +336,14 @@ fn process(
             &FileProgress { observer, input },
         ) {
             Ok(result) => {
+                let written = Instant::now();
+                let r = &result.timings;
+                time = StageTimes {
+                    read_s: r.read_s,
+                    estimate_s: r.welch_s + r.avar_s,
+                    fit_s: r.fit_s,
+                    write_s: 0.0,
+                };
                 notes.extend(result.quality.unit_notes());
                 let records = ChannelRecord::from_result(input, &result);
                 let plot = match cfg.plots {
@@ -307,6 +362,7 @@ fn process(
                 }
                 // The spectra, deviations and fits go here, before the next file.
                 drop(result);
+                time.write_s = written.elapsed().as_secs_f64();
                 records
             }
             Err(e) => vec![ChannelRecord::error(input, e.to_string())],
@@ -324,7 +380,9 @@ fn process(
         status,
         key: input.key.clone(),
     };
+    let written = Instant::now();
     write_part(&part, &records, &meta)?;
+    time.write_s += written.elapsed().as_secs_f64();
     if admission.is_none() {
         // (An admission does this when it is dropped.)
         crate::memory::release_freed_memory();
@@ -332,6 +390,7 @@ fn process(
     drop(admission);
     Ok(FileOutcome::Computed {
         seconds: t.elapsed().as_secs_f64(),
+        time,
         records,
         notes,
     })

@@ -56,7 +56,9 @@ pub mod verdict;
 use std::path::PathBuf;
 
 pub use assess::{assess, FailOn, Fleet, FleetRow, TermAssessment, TermStats, UnusualEffect};
-pub use batch::{run_batch, BatchConfig, BatchSummary, FileOutcome, Observer, PlotPolicy};
+pub use batch::{
+    run_batch, BatchConfig, BatchSummary, FileOutcome, Observer, PlotPolicy, StageTimes,
+};
 pub use inputs::{collect_inputs, Input, Shard};
 pub use layout::{fleet_step, FleetStepSummary, Layout};
 pub use lock::{Lock, LockError, TakenOver};

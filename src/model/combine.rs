@@ -194,12 +194,24 @@ impl FitWarning {
                 weight,
                 evidence,
             } => format!(
-                "a model with a {} explains the data nearly as well (ΔBIC {delta_bic:+.1}, not \
-                 below the −6 an effect needs; {evidence}): the coefficients and their intervals \
-                 are those of both models averaged, this one weighing {:.0} % of the total",
+                "a model with {} explains the data nearly as well (ΔBIC {delta_bic:+.1}{}; \
+                 {evidence}): the coefficients and their intervals are those of both models \
+                 averaged, this one weighing {:.0} % of the total",
                 match effect.as_str() {
-                    "gauss_markov" => "Gauss–Markov process",
+                    "gauss_markov" => "a Gauss–Markov process",
+                    "coupling" => "a coupling to an aux channel",
+                    "step" => "a bias step",
+                    "excursion" => "an excursion",
+                    "drift" => "a drift",
+                    "resonance" => "a resonance",
                     other => other,
+                },
+                // A slow effect's own note says why it was not admitted where its ΔBIC was low
+                // enough (its family-wise p-value).
+                if *delta_bic >= -6.0 {
+                    ", not below the −6 an effect needs"
+                } else {
+                    ""
                 },
                 100.0 * super::rival_share(*weight)
             ),

@@ -226,3 +226,108 @@ fn a_gauss_markov_process_too_long_to_admit_is_averaged_in_as_a_rival() {
     });
     assert_eq!(named, rival.share >= imunoise::effects::RIVAL_WARNING_SHARE);
 }
+
+/// A warm-up of 100 °/h settling with Tc 300 s, no temperature channel, 30 min: the base fit's K
+/// takes the drift in (2–3×), which weakens the drift's own regression, and under that noise
+/// model the parabola can beat the exponential by a hair; removing the parabola left the
+/// warm-up, and K, in place (missed in 8 of 50 validation records, K 2–3× there). The drift is
+/// now refined in each family of shapes apart. Over 16 seeds: found in all but at most one, and
+/// the final Allan K within a factor of 2 of the truth in all but at most two (measured: see the
+/// printed lines).
+#[test]
+fn a_large_warm_up_is_found_and_leaves_the_random_walk_alone() {
+    let amplitude = imunoise::model::CoefUnit::DegPerH.to_si(100.0);
+    let truth = crate::support::loop_gyro().k;
+    let (mut found, mut k_off) = (0, Vec::new());
+    for seed in 40..56 {
+        let cols = record(
+            json!({ "drift": { "exponential": { "amplitude": amplitude, "tc_s": 300.0 } } }),
+            false,
+            1800.0,
+            seed,
+        );
+        let o = run(&cols);
+        found += usize::from(kinds(&o).contains(&"drift"));
+        let k = o
+            .allan
+            .as_ref()
+            .and_then(|f| f.get(Term::RateRandomWalk))
+            .map_or(0.0, |k| k.value);
+        println!(
+            "seed {seed}: {:?}, K {:.2}× the truth",
+            kinds(&o),
+            k / truth
+        );
+        // A K the fit left out is no inflation.
+        if k > 2.0 * truth {
+            k_off.push((seed, k / truth));
+        }
+    }
+    assert!(found >= 15, "{found} of 16");
+    assert!(k_off.len() <= 2, "{k_off:?}");
+}
+
+/// A temperature coupling of 5e-5 rad/s/°C (the 4 °C warm-up moves the rate by 2e-4 rad/s, 14×
+/// B) in 30 min is admitted in about half the records. Where it is not, but its regression found
+/// some evidence (p below `RIVAL_SLOW_P`), it is the loop's rival: the coefficients average the
+/// model without it and the series with it removed, its weight is e^(−ΔBIC/2), and a warning
+/// names it from 10 % of the weight on. Over 12 seeds (measured: see the printed lines).
+#[test]
+fn a_coupling_short_of_admission_is_averaged_in_as_a_rival() {
+    use imunoise::effects::{RIVAL_SLOW_P, RIVAL_WARNING_SHARE};
+    let (mut admitted, mut rivals, mut neither) = (0, 0, Vec::new());
+    for seed in 60..72 {
+        let cols = record(
+            json!({ "temperature_coefficient": 5e-5 }),
+            true,
+            1800.0,
+            seed,
+        );
+        let o = run(&cols);
+        if kinds(&o).contains(&"coupling") {
+            admitted += 1;
+            continue;
+        }
+        let coupling = o.report.rejected.iter().find(|r| r.kind == "coupling");
+        match o.report.rival.as_ref() {
+            Some(r) if r.effect.kind() == "coupling" => {
+                let Effect::Coupling { fit, .. } = &r.effect else {
+                    unreachable!()
+                };
+                assert!(fit.p_value < RIVAL_SLOW_P, "{r:?}");
+                assert!((r.weight - (-r.delta_bic / 2.0).exp()).abs() < 1e-12);
+                let named = o.report.warnings().iter().any(|w| {
+                    matches!(w, imunoise::model::FitWarning::RivalModel { effect, evidence, .. }
+                        if effect == "coupling" && evidence.contains("temperature"))
+                });
+                assert_eq!(named, r.share >= RIVAL_WARNING_SHARE, "{r:?}");
+                // The model with the coupling reads the slow terms lower: the average lies
+                // between, below the final model's own reading.
+                let base = o.report.base_allan.as_ref().unwrap();
+                for term in [Term::BiasInstability, Term::RateRandomWalk] {
+                    let (b, a) = (base.get(term), o.allan.as_ref().unwrap().get(term));
+                    println!("seed {seed}: {term:?} base {b:?}\n  averaged {a:?}");
+                }
+                rivals += 1;
+            }
+            other => {
+                // Not the rival: no evidence, or another rival that scored better.
+                let c = coupling.expect("the coupling is listed");
+                let p: f64 = c
+                    .note
+                    .split("family-wise p = ")
+                    .nth(1)
+                    .and_then(|t| t.split([',', ' ', ';']).next())
+                    .and_then(|t| t.parse().ok())
+                    .unwrap_or_else(|| panic!("{}", c.note));
+                let beaten = other.is_some_and(|r| Some(r.delta_bic) <= c.delta_bic);
+                assert!(p >= RIVAL_SLOW_P || beaten, "seed {seed}: {other:?}; {c:?}");
+                neither.push((seed, other.map(|r| r.effect.kind()), p));
+            }
+        }
+    }
+    // Measured: admitted 6, rivals 3, neither 3 (p 0.06–0.08, one of them with a Gauss–Markov
+    // rival).
+    println!("admitted {admitted}, rivals {rivals}, neither {neither:?}");
+    assert!(rivals >= 2, "{rivals}");
+}

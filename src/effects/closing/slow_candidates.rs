@@ -147,11 +147,28 @@ pub(super) fn slow_candidates(
     }
     // The drift and excursion searches regress on the same whitened increments: whitened once.
     let increments = IncrementModel::for_series(&density, fs, y, MAX_INCREMENTS);
-    let first = increments
-        .as_ref()
-        .and_then(|(m, u)| drift_in(y, fs, m, u, p));
-    let estimate = |density: &dyn Fn(f64) -> f64| drift_under_model(y, fs, density, p);
-    out.extend(slow_candidate(state, fs, cfg, first, &estimate));
+    // A drift with some evidence is refined in each family of shapes apart, and the one that
+    // then scores best is the candidate: under a noise model whose random walk took a warm-up
+    // in, the parabola can beat the settling exponential by a hair, and removing the parabola
+    // leaves the warm-up, and the random walk, in place.
+    let drift_of = |shapes: DriftShapes| {
+        increments
+            .as_ref()
+            .and_then(|(m, u)| drift_in(y, fs, m, u, p, shapes))
+    };
+    let drift = |first: Option<Drift>, shapes: DriftShapes| {
+        let estimate = |density: &dyn Fn(f64) -> f64| drift_under_model(y, fs, density, p, shapes);
+        slow_candidate(state, fs, cfg, first, &estimate)
+    };
+    let all = drift_of(DriftShapes::All);
+    out.extend(if all.as_ref().is_some_and(|d| d.p_value < REFINE_P) {
+        [DriftShapes::Exponential, DriftShapes::Quadratic]
+            .into_iter()
+            .filter_map(|shapes| drift(drift_of(shapes), shapes))
+            .min_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic))
+    } else {
+        drift(all, DriftShapes::All)
+    });
     // One scan of every box gives the best excursion and the best single step.
     let boxes = increments
         .as_ref()
