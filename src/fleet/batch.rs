@@ -408,3 +408,29 @@ fn fails(r: &ChannelRecord, spec: &Spec) -> bool {
     });
     spec_fail || r.quality.iter().any(|q| q != "no_unit")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::StageTimes;
+
+    #[test]
+    fn stage_times_add_up_and_give_their_shares() {
+        let mut t = StageTimes::default();
+        for _ in 0..2 {
+            t.add(&StageTimes {
+                read_s: 0.5,
+                estimate_s: 0.5,
+                fit_s: 1.0,
+                write_s: 0.0,
+            });
+        }
+        assert_eq!(
+            t.describe(),
+            "read and screen 1.0 s (25 %), estimate 1.0 s (25 %), fit and loop 2.0 s (50 %), write 0.0 s (0 %)"
+        );
+        // Nothing computed: no shares to divide by.
+        assert!(StageTimes::default()
+            .describe()
+            .ends_with("write 0.0 s (0 %)"));
+    }
+}

@@ -195,6 +195,40 @@ fn a_fleet_with_three_planted_faults_flags_exactly_those_and_a_rerun_skips_every
         stderr(&first)
     );
     assert_eq!(lines_starting(&first, "done  "), 20, "{}", stderr(&first));
+    // Where the 20 files' time went, by stage: every stage named, the fits (with the loop) the
+    // largest, the shares adding up to 100 % within rounding.
+    let time = stderr(&first)
+        .lines()
+        .find_map(|l| l.strip_prefix("time of the 20 files computed, summed over files: "))
+        .map(str::to_owned)
+        .unwrap_or_else(|| panic!("{}", stderr(&first)));
+    let stages: Vec<(String, f64, f64)> = time
+        .split(", ")
+        .map(|stage| {
+            // "fit and loop 12.3 s (81 %)"
+            let (head, share) = stage.split_once(" s (").unwrap();
+            let (what, seconds) = head.rsplit_once(' ').unwrap();
+            let share = share.trim_end_matches(" %)");
+            (
+                what.to_owned(),
+                seconds.parse().unwrap(),
+                share.parse().unwrap(),
+            )
+        })
+        .collect();
+    let names: Vec<&str> = stages.iter().map(|s| s.0.as_str()).collect();
+    assert_eq!(
+        names,
+        ["read and screen", "estimate", "fit and loop", "write"],
+        "{time}"
+    );
+    assert!(stages.iter().all(|s| s.1 >= 0.0), "{time}");
+    let shares: f64 = stages.iter().map(|s| s.2).sum();
+    assert!((shares - 100.0).abs() <= 2.0, "{time}");
+    assert!(
+        stages[2].1 > stages[1].1 && stages[2].1 > stages[0].1,
+        "{time}"
+    );
     let out = tmp.path().join("out");
     assert_eq!(parts(&out).len(), 20);
 
@@ -269,6 +303,11 @@ fn a_fleet_with_three_planted_faults_flags_exactly_those_and_a_rerun_skips_every
     assert_eq!(lines_starting(&again, "done  "), 0, "{}", stderr(&again));
     assert!(
         stderr(&again).contains("0 computed, 20 skipped"),
+        "{}",
+        stderr(&again)
+    );
+    assert!(
+        !stderr(&again).contains("time of the"),
         "{}",
         stderr(&again)
     );

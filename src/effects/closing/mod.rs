@@ -439,6 +439,9 @@ fn noise_density<'a>(
 
 /// A candidate for this round: its ΔBIC, what it would add, and the evidence.
 struct Candidate {
+    /// Why it may not be added, found beside the candidate itself (a drift that a coupling
+    /// explains).
+    veto: Option<String>,
     delta_bic: f64,
     effect: Effect,
     evidence: String,
@@ -450,6 +453,9 @@ impl Candidate {
     /// p-value is not below [`DETECTION_P`], or an excursion that a single step explains nearly
     /// as well.
     fn barred(&self) -> Option<String> {
+        if self.veto.is_some() {
+            return self.veto.clone();
+        }
         if let Effect::Excursion(e) = &self.effect {
             if !e.beats_step() {
                 return Some(format!(
@@ -767,6 +773,7 @@ fn propose(
     } else if !spikes.indices.is_empty() {
         let s = spikes.clone();
         out.push(Candidate {
+            veto: None,
             delta_bic: spikes.delta_bic,
             evidence: format!(
                 "time series: {} samples beyond {:.1}σ of the running median, {:.1} % of the variance",
@@ -800,6 +807,7 @@ fn propose(
         }
         let s = step.clone();
         out.push(Candidate {
+            veto: None,
             delta_bic: step.delta_bic,
             evidence: format!(
                 "time series: mean jumps at {:.1} s (dynamic Allan z = {:.1} over {:.1} s windows)",
@@ -872,6 +880,7 @@ fn propose(
         if let Some(sine) = sine.filter(|_| line_share >= 0.5) {
             let s = sine.clone();
             out.push(Candidate {
+                veto: None,
                 delta_bic: sine.delta_bic,
                 evidence: describe_excess(e),
                 effect: Effect::Sinusoid(sine),
@@ -886,6 +895,7 @@ fn propose(
                 nb.coherent_share = line_share.min(1.0);
                 let clean = remove_narrowband(y, fs, &nb, &local, state.psd.nperseg);
                 out.push(Candidate {
+                    veto: None,
                     delta_bic: nb.delta_bic,
                     evidence: format!(
                         "{}; one coherent sinusoid explains {:.0} % of it",

@@ -265,6 +265,7 @@ pub(super) fn resonance_candidate(
         (sigma.lo, sigma.hi) = (sigma.lo.min(lo), sigma.hi.max(hi));
     }
     Some(Candidate {
+        veto: None,
         delta_bic: if ds < 0.0 { ds + da } else { ds.max(0.0) + da.max(0.0) },
         evidence: format!(
             "{}; wider than a line (half-power width {:.3} Hz); ΔBIC spectrum {ds:.1}, Allan {da:.1}",
@@ -424,6 +425,7 @@ pub(super) fn gauss_markov_candidate(
         });
     let (ds, da) = (best.ds, best.da);
     Some(Candidate {
+        veto: None,
         delta_bic: best.delta,
         evidence: format!(
             "Lorentzian knee near {:.4} Hz (Tc = {tc:.3} s{}){where_}; ΔBIC spectrum {ds:.1}, Allan {da:.1}",
