@@ -406,6 +406,13 @@ fn main() {
             };
             tally.runs += 1;
             if verbose {
+                if let Some(b) = &o.report.bandwidth {
+                    eprintln!(
+                        "  band {:?} corner {:.2} Hz order {} Nyquist {:.1} dB, f ≤ {:.2} Hz, ΔBIC {:.0}, {:?}",
+                        b.lowpass.form, b.lowpass.corner_hz, b.lowpass.order,
+                        b.nyquist_attenuation_db, b.fit_max_freq_hz, b.delta_bic, b.cause
+                    );
+                }
                 eprintln!(
                     "seed {}: added {:?}",
                     FIRST_SEED + s,
@@ -443,7 +450,9 @@ fn main() {
                     }
                 }
             }
-            tally.detected += usize::from(o.report.bandwidth.is_some());
+            // A filter claimed: an edge the output's coarse angle grid makes is not one.
+            tally.detected +=
+                usize::from(o.report.bandwidth.as_ref().is_some_and(|b| b.is_filter()));
             if !o.report.steps.is_empty() {
                 tally.with_effect += 1;
                 // Each kind once per record: the column counts records.

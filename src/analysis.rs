@@ -12,6 +12,7 @@
 use serde::Serialize;
 
 use crate::avar::{Deviations, Statistic};
+use crate::effects::angle_grid::attribute_edge;
 use crate::effects::{close_loop_from_base, AuxSeries, LoopConfig, LoopReport};
 use crate::estimate::{ChannelDeviations, ChannelPsd};
 use crate::model::{
@@ -119,7 +120,13 @@ fn fit_and_close(
     opts: &FitOptions,
     loop_cfg: Option<&LoopConfig>,
 ) -> ChannelAnalysis {
-    let mut a = fit_channel(input.sensor, input.psd, input.deviations, opts);
+    let mut a = fit_channel(
+        input.sensor,
+        input.psd,
+        input.deviations,
+        opts,
+        input.output_step,
+    );
     let (Some(cfg), Some(binned), Some(dev)) =
         (loop_cfg, &input.psd.binned, oadev(input.deviations))
     else {
@@ -159,39 +166,54 @@ fn fit_and_close(
 
 /// Fits one channel from its estimates: the OADEV of `deviations` and the binned spectrum of `psd`,
 /// inside the sensor's bandwidth when `opts.detect_bandwidth` and the spectrum shows a roll-off.
+/// `output_step`: the smallest step between the samples, which tells a coarse angle quantiser's
+/// edge from a filter's ([`attribute_edge`]; the fits are then made again without the filter's
+/// response).
 pub fn fit_channel(
     sensor: Sensor,
     psd: &ChannelPsd,
     deviations: &ChannelDeviations,
     opts: &FitOptions,
+    output_step: Option<f64>,
 ) -> ChannelAnalysis {
     let dev = oadev(deviations);
-    let bandwidth = match (&psd.binned, opts.detect_bandwidth) {
+    let mut bandwidth = match (&psd.binned, opts.detect_bandwidth) {
         (Some(binned), true) => {
             let taus = dev.map_or(&[][..], |d| &d.tau_s[..]);
             detect_bandwidth(&psd.psd, binned, taus, opts)
         }
         _ => None,
     };
-    let restricted;
-    let opts = match &bandwidth {
-        Some(b) => {
-            restricted = b.restrict(opts);
-            &restricted
+    let fits = |opts: &FitOptions| {
+        let allan = dev
+            .ok_or(FitError::InvalidOptions(
+                "the Allan fit needs the overlapping Allan variance (oadev)".into(),
+            ))
+            .and_then(|d| fit_avar(d, opts));
+        let spectrum = match &psd.binned {
+            Some(binned) => fit_psd(&psd.psd, binned, opts),
+            None => Err(FitError::InvalidOptions(
+                "the spectrum fit needs the log-binned spectrum (bins per decade > 0)".into(),
+            )),
+        };
+        (allan, spectrum)
+    };
+    let (mut allan, mut spectrum) = fits(
+        &bandwidth
+            .as_ref()
+            .map_or_else(|| opts.clone(), |b| b.restrict(opts)),
+    );
+    if let Some(b) = bandwidth.as_mut() {
+        if attribute_edge(
+            b,
+            &psd.psd,
+            output_step,
+            allan.as_ref().ok(),
+            spectrum.as_ref().ok(),
+        ) {
+            (allan, spectrum) = fits(&b.restrict(opts));
         }
-        None => opts,
-    };
-    let allan = dev
-        .ok_or(FitError::InvalidOptions(
-            "the Allan fit needs the overlapping Allan variance (oadev)".into(),
-        ))
-        .and_then(|d| fit_avar(d, opts));
-    let spectrum = match &psd.binned {
-        Some(binned) => fit_psd(&psd.psd, binned, opts),
-        None => Err(FitError::InvalidOptions(
-            "the spectrum fit needs the log-binned spectrum (bins per decade > 0)".into(),
-        )),
-    };
+    }
     let comparison = comparison(&allan, &spectrum);
     let combined = combine(allan.as_ref().ok(), spectrum.as_ref().ok(), dev);
     ChannelAnalysis {

@@ -6,6 +6,7 @@ use std::time::{Duration, Instant};
 
 use imunoise::estimate::{Backend, CpuBackend};
 use imunoise::gpu::GpuError;
+use imunoise::model::BandEdge;
 use imunoise::pipeline::{self, FileResult, Progress};
 use imunoise::report::format::{count, count_as, duration, rate_hz, throughput};
 use imunoise::report::{self, EffectUnits, OutputError};
@@ -205,12 +206,22 @@ pub fn run(job: &Job) -> i32 {
                 }
                 for a in r.analysis.iter().flatten() {
                     if let (Some(b), false) = (&a.bandwidth, job.output.quiet) {
+                        let edge = match b.cause {
+                            BandEdge::LowPass => format!(
+                                "sensor low-pass at {} Hz (order {})",
+                                report::sig4(b.lowpass.corner_hz),
+                                b.lowpass.order
+                            ),
+                            BandEdge::AngleQuantiser { steps_per_sigma, .. } => format!(
+                                "below the IEEE model above about {} Hz from the coarse angle grid ({:.1} σ per step), no filter claimed",
+                                report::sig4(b.lowpass.corner_hz),
+                                steps_per_sigma
+                            ),
+                        };
                         bar.line(&format!(
-                            "band  {} {}: sensor low-pass at {} Hz (order {}); fits use f ≤ {} Hz, τ ≥ {} s",
+                            "band  {} {}: {edge}; fits use f ≤ {} Hz, τ ≥ {} s",
                             path.display(),
                             a.channel,
-                            report::sig4(b.lowpass.corner_hz),
-                            b.lowpass.order,
                             report::sig4(b.fit_max_freq_hz),
                             b.fit_min_tau_s.map_or("–".into(), report::sig4),
                         ));

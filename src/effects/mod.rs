@@ -6,6 +6,7 @@
 //! - [`shapes`]: stochastic effects fitted as one more model column (Gauss–Markov, resonance).
 //! - [`time`]: effects that live in the time series (coupling to an aux channel, spikes, bias
 //!   steps, sinusoid regression, split-record stationarity).
+pub mod angle_grid;
 pub mod closing;
 pub mod excursion;
 pub mod lines;

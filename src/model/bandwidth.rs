@@ -220,10 +220,35 @@ pub struct Bandwidth {
     pub fit_min_tau_s: Option<f64>,
     /// BIC of the filtered model minus the unfiltered one (negative: the roll-off is real).
     pub delta_bic: f64,
+    /// What the edge is taken for: the sensor's low-pass filter, or the coarse angle quantiser
+    /// whose correlated rounding error makes the same deficit
+    /// ([`crate::effects::angle_grid::attribute_edge`]).
+    pub cause: BandEdge,
+}
+
+/// What ends the band in which the recording follows the IEEE model.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum BandEdge {
+    /// The sensor's low-pass filter (anti-alias, digital, decimation): `lowpass` is its response.
+    LowPass,
+    /// The output is a coarse angle quantiser's grid (`step`, SI rate units, `steps_per_sigma`
+    /// output white σ per step, at least [`crate::model::ANGLE_ERROR_CORRELATED_FROM_STEPS`]):
+    /// its rounding error is correlated from sample to sample and falls below IEEE 952's
+    /// quantisation form at high frequency, which reads as a roll-off. No filter is claimed
+    /// (one may be there as well); `lowpass` only describes the edge's shape, and the band is
+    /// kept, since the IEEE model does not hold above it.
+    AngleQuantiser { step: f64, steps_per_sigma: f64 },
 }
 
 impl Bandwidth {
-    /// `opts` restricted to this band (an explicit band limit the user set stays if narrower).
+    /// Whether a sensor low-pass filter is claimed (the edge is not another cause's).
+    pub fn is_filter(&self) -> bool {
+        self.cause == BandEdge::LowPass
+    }
+
+    /// `opts` restricted to this band (an explicit band limit the user set stays if narrower), with
+    /// the filter's response where the edge is a filter's.
     pub fn restrict(&self, opts: &FitOptions) -> FitOptions {
         let mut out = opts.clone();
         out.max_freq_hz = Some(
@@ -232,7 +257,9 @@ impl Bandwidth {
         );
         let tau = self.fit_min_tau_s.unwrap_or(f64::INFINITY);
         out.min_tau_s = Some(opts.min_tau_s.map_or(tau, |t| t.max(tau)));
-        out.lowpass = Some(self.lowpass);
+        // A quantiser's edge is no filter: N's Allan column keeps its whole share, the line
+        // search its unfiltered model.
+        out.lowpass = self.is_filter().then_some(self.lowpass);
         out
     }
 }
@@ -508,6 +535,7 @@ pub fn detect_bandwidth(
         fit_max_freq_hz,
         fit_min_tau_s,
         delta_bic,
+        cause: BandEdge::LowPass,
     })
 }
 

@@ -79,7 +79,7 @@ mod units;
 
 pub use avar_fit::{fit_avar, fit_avar_with};
 pub use average::{average_with_rival, rival_share};
-pub use bandwidth::{detect_bandwidth, Bandwidth, FilterForm, LowPass, BAND_BIAS};
+pub use bandwidth::{detect_bandwidth, BandEdge, Bandwidth, FilterForm, LowPass, BAND_BIAS};
 pub use combine::{
     combine, heavy_tail_line, read_offs, resolution_line, upper_limit, Combined, CombinedTerm,
     FitWarning, ReadOff,
@@ -89,7 +89,10 @@ pub use effect::EffectShape;
 pub use error::FitError;
 pub use options::FitOptions;
 pub use psd_fit::{fit_psd, fit_psd_with};
-pub use resolution::{rounding_warning, SUBTRACTION_HOLDS_TO_STEPS, UPPER_BOUND_HOLDS_TO_STEPS};
+pub use resolution::{
+    angle_grid_steps_per_sigma, rounding_warning, ANGLE_ERROR_CORRELATED_FROM_STEPS,
+    SUBTRACTION_HOLDS_TO_STEPS, UPPER_BOUND_HOLDS_TO_STEPS,
+};
 pub use result::{
     Candidate, Criterion, Domain, EffectEstimate, FitPoint, LackOfFit, NoiseFit, TermEstimate,
     UpperLimit,

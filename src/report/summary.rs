@@ -9,7 +9,7 @@ use crate::analysis::ChannelAnalysis;
 use crate::effects::slow::DriftShape;
 use crate::effects::{Effect, ErrorFigures};
 use crate::io::Recording;
-use crate::model::{FitWarning, NoiseFit, Sensor, Term, TermEstimate};
+use crate::model::{BandEdge, FitWarning, NoiseFit, Sensor, Term, TermEstimate};
 use crate::pipeline::FileResult;
 use crate::units::Unit;
 
@@ -288,21 +288,34 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
     let mut notes = Vec::new();
     for a in analysis {
         if let Some(b) = &a.bandwidth {
-            notes.push(format!(
-                "{}: sensor low-pass detected ({} form, corner {} Hz, order {}, {:.0} dB/decade, ΔBIC {:.0}); \
-                 fits use the spectrum up to {} Hz and the Allan variance from τ = {} s",
-                a.channel,
-                match b.lowpass.form {
-                    crate::model::FilterForm::Analog => "analog",
-                    crate::model::FilterForm::Digital { .. } => "digital",
-                },
-                sig4(b.lowpass.corner_hz),
-                b.lowpass.order,
-                b.slope_db_per_decade,
-                b.delta_bic,
+            let band = format!(
+                "fits use the spectrum up to {} Hz and the Allan variance from τ = {} s",
                 sig4(b.fit_max_freq_hz),
                 b.fit_min_tau_s.map_or("–".into(), sig4),
-            ));
+            );
+            notes.push(match b.cause {
+                BandEdge::LowPass => format!(
+                    "{}: sensor low-pass detected ({} form, corner {} Hz, order {}, {:.0} dB/decade, ΔBIC {:.0}); {band}",
+                    a.channel,
+                    match b.lowpass.form {
+                        crate::model::FilterForm::Analog => "analog",
+                        crate::model::FilterForm::Digital { .. } => "digital",
+                    },
+                    sig4(b.lowpass.corner_hz),
+                    b.lowpass.order,
+                    b.slope_db_per_decade,
+                    b.delta_bic,
+                ),
+                BandEdge::AngleQuantiser { steps_per_sigma, .. } => format!(
+                    "{}: the spectrum falls below the IEEE model above about {} Hz (ΔBIC {:.0}), where the \
+                     output's coarse angle grid ({:.1} white σ per step, the fits' Q) makes the rounding \
+                     error correlated: no filter is claimed; {band}",
+                    a.channel,
+                    sig4(b.lowpass.corner_hz),
+                    b.delta_bic,
+                    steps_per_sigma,
+                ),
+            });
         }
         for w in &a.combined.warnings {
             notes.push(format!(

@@ -551,22 +551,38 @@ fn run_loop(
     };
     // Fit and search only inside the sensor's bandwidth (see `model::bandwidth`).
     let mut cfg = cfg.clone();
-    let bandwidth = if cfg.fit.detect_bandwidth {
+    let mut bandwidth = if cfg.fit.detect_bandwidth {
         cfg.fit.detect_bandwidth = false;
         detect_bandwidth(&psd, &binned, &dev.tau_s, &cfg.fit)
     } else {
         None
     };
+    let unrestricted = cfg.fit.clone();
     if let Some(b) = &bandwidth {
-        cfg.fit = b.restrict(&cfg.fit);
+        cfg.fit = b.restrict(&unrestricted);
     }
-    let cfg = &cfg;
     // The caller's base fits, where it made them on these estimates with these options (no band
     // detected here: the options are unchanged).
-    let (allan, spectrum) = match base {
+    let (mut allan, mut spectrum) = match base {
         Some(b) if bandwidth.is_none() => b,
-        _ => fits(&dev, &psd, &binned, cfg, None),
+        _ => fits(&dev, &psd, &binned, &cfg, None),
     };
+    // An edge the output's coarse angle grid makes is no filter: fitted again without the
+    // filter's response (see `angle_grid::attribute_edge`).
+    if let Some(b) = bandwidth.as_mut() {
+        let grid = crate::quality::smallest_step(y);
+        if crate::effects::angle_grid::attribute_edge(
+            b,
+            &psd,
+            grid,
+            allan.as_ref(),
+            spectrum.as_ref(),
+        ) {
+            cfg.fit = b.restrict(&unrestricted);
+            (allan, spectrum) = fits(&dev, &psd, &binned, &cfg, None);
+        }
+    }
+    let cfg = &cfg;
     let mut state = State {
         y: Cow::Borrowed(y),
         dev,
