@@ -213,7 +213,7 @@ pub fn run(job: &Job) -> i32 {
                                 b.lowpass.order
                             ),
                             BandEdge::AngleQuantiser { steps_per_sigma, .. } => format!(
-                                "below the IEEE model above about {} Hz from the coarse angle grid ({:.1} σ per step), no filter claimed",
+                                "an edge at {} Hz from the coarse angle grid ({:.1} σ per step), no filter claimed",
                                 report::sig4(b.lowpass.corner_hz),
                                 steps_per_sigma
                             ),

@@ -307,9 +307,9 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
                     b.delta_bic,
                 ),
                 BandEdge::AngleQuantiser { steps_per_sigma, .. } => format!(
-                    "{}: the spectrum falls below the IEEE model above about {} Hz (ΔBIC {:.0}), where the \
-                     output's coarse angle grid ({:.1} white σ per step, the fits' Q) makes the rounding \
-                     error correlated: no filter is claimed; {band}",
+                    "{}: the spectrum falls below the IEEE model towards Nyquist (an edge fitted at {} Hz, \
+                     ΔBIC {:.0}), where the output's coarse angle grid ({:.1} white σ per step, the fits' Q) \
+                     makes the rounding error correlated: no filter is claimed; {band}",
                     a.channel,
                     sig4(b.lowpass.corner_hz),
                     b.delta_bic,

@@ -353,3 +353,28 @@ fn a_rival_model_is_reported_everywhere() {
     );
     assert!(summary.contains("nearly as well"), "{summary}");
 }
+
+/// `analyze` of an unfiltered gyro whose integrated angle is rounded to Q = 0.9 arcsec (3.5 white
+/// σ per step): the edge its correlated rounding error makes is reported as the angle grid's in
+/// report.json (valid against the schema), on stderr and in summary.md, and no filter is claimed
+/// anywhere (the quality screen's grid step takes this path; `bandwidth.rs` tests the loop's).
+#[test]
+fn a_coarse_angle_grid_is_reported_as_such_and_no_filter_is_claimed() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = serde_json::json!({
+        "rate_hz": 100.0, "duration_s": 1800.0, "seed": 3,
+        "channels": [{ "name": "gyro_x", "sensor": "gyro",
+            "noise": { "q": 4.363e-6, "n": 4.3633e-5, "b": 1.4544e-5, "k": 1.616e-6 } }]
+    });
+    let (stderr, report) = simulate_and_analyze(dir.path(), &spec);
+    crate::schema::matches_schema(&report).unwrap();
+    let band = &channel_analysis(&report, "gyro_x")["bandwidth"];
+    assert_eq!(band["cause"]["kind"], "angle_quantiser", "{band}");
+    let r = band["cause"]["steps_per_sigma"].as_f64().unwrap();
+    assert!((3.2..3.8).contains(&r), "{band}");
+    assert!(stderr.contains("coarse angle grid"), "{stderr}");
+    assert!(!stderr.contains("sensor low-pass"), "{stderr}");
+    let summary = std::fs::read_to_string(dir.path().join("out/summary.md")).unwrap();
+    assert!(summary.contains("no filter is claimed"), "{summary}");
+    assert!(!summary.contains("sensor low-pass detected"), "{summary}");
+}
