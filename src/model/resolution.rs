@@ -95,7 +95,7 @@ pub fn rounding_warning(
 /// N² plus that form with Q = step/√12): r ≤ 1.5 within 0.3 % everywhere; r = 2 −0.8 % over
 /// 40–50 Hz at 100 Hz; r = 2.5 −2 % over 30–40 Hz and −3 % over 40–50 Hz; r = 3.5 (the output on
 /// five levels) −12 % and −15 %, with +5 % over 10–20 Hz. That deficit is what a low-pass
-/// detector reads as a filter's roll-off.
+/// detector reads as a filter's roll-off (`scripts/angle_quantiser_spectrum.py` reruns the study).
 pub const ANGLE_ERROR_CORRELATED_FROM_STEPS: f64 = 2.0;
 
 /// Output σ per step of a grid that is an angle quantiser's, and the N it is measured with:

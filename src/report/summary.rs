@@ -309,7 +309,8 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
                 BandEdge::AngleQuantiser { steps_per_sigma, .. } => format!(
                     "{}: the spectrum falls below the IEEE model towards Nyquist (an edge fitted at {} Hz, \
                      ΔBIC {:.0}), where the output's coarse angle grid ({:.1} white σ per step, the fits' Q) \
-                     makes the rounding error correlated: no filter is claimed; {band}",
+                     makes the rounding error correlated: no filter is claimed, and Q's interval spans both \
+                     fits (IEEE 952's Q form describes a correlated error only roughly); {band}",
                     a.channel,
                     sig4(b.lowpass.corner_hz),
                     b.delta_bic,

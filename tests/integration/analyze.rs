@@ -374,6 +374,18 @@ fn a_coarse_angle_grid_is_reported_as_such_and_no_filter_is_claimed() {
     assert!((3.2..3.8).contains(&r), "{band}");
     assert!(stderr.contains("coarse angle grid"), "{stderr}");
     assert!(!stderr.contains("sensor low-pass"), "{stderr}");
+    // Q's combined interval spans both fits (each reads the correlated error its own way) and
+    // covers the planted Q.
+    let q = report["files"][0]["analysis"][0]["combined"]["terms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["term"] == "quantization")
+        .expect("Q combined")
+        .clone();
+    assert_eq!(q["hull"], true, "{q}");
+    let (lo, hi) = (q["lo"].as_f64().unwrap(), q["hi"].as_f64().unwrap());
+    assert!(lo <= 4.363e-6 && 4.363e-6 <= hi, "{q}");
     let summary = std::fs::read_to_string(dir.path().join("out/summary.md")).unwrap();
     assert!(summary.contains("no filter is claimed"), "{summary}");
     assert!(!summary.contains("sensor low-pass detected"), "{summary}");
