@@ -9,15 +9,16 @@
 //! apart by the shape of the deficit alone. What tells them apart is its size: the quantiser alone
 //! is simulated here (white noise of the fitted N, integrated, rounded to the recording's grid,
 //! differenced) and its spectrum above the edge compared with the recording's. Without a filter
-//! the two agree: the ratio of their medians was 0.94–1.03 (median 0.977) over 30 seeds of the
+//! the two agree: the ratio of their medians was 0.95–1.04 (median 0.984) over 30 seeds of the
 //! validation's angle quantiser (30-min records, 3.5 σ per step); a filter takes N's share away as
-//! well: 0.65–0.72 (median 0.68) over 30 seeds of its fourth-order digital low-pass at 30 Hz under
+//! well: 0.65–0.72 (median 0.683) over 30 seeds of its fourth-order digital low-pass at 30 Hz under
 //! the same grid, and the edge stays the filter's. The threshold, 0.85, sits between the two.
 
 use crate::model::{
     angle_grid_steps_per_sigma, BandEdge, Bandwidth, NoiseFit, ANGLE_ERROR_CORRELATED_FROM_STEPS,
 };
 use crate::psd::{welch, Psd, Scaling, WelchConfig};
+use crate::sim::quantize;
 use crate::sim::rng::Rng;
 
 /// Takes `band`'s edge for the angle quantiser's when the output lies on the grid of a rounded
@@ -59,7 +60,8 @@ pub fn attribute_edge(
 pub const GRID_EXPLAINS_FROM: f64 = 0.85;
 
 /// Samples of the simulated quantiser (2¹⁹: 1023 segments of 1024, so its median density above
-/// the edge is known to a fraction of a percent; about 20 ms).
+/// the edge is known to a fraction of a percent; 23–25 ms on average here, run only where the
+/// grid is coarse and the fits' Q matches it).
 const SIMULATED: usize = 1 << 19;
 
 /// The median spectral density of `psd` over (`edge_hz`, 0.95·Nyquist) over that of an unfiltered
@@ -70,20 +72,12 @@ pub fn data_over_grid_spectrum(psd: &Psd, step: f64, n: f64, edge_hz: f64) -> Op
     if !(step > 0.0 && n > 0.0 && fs > 0.0 && edge_hz < 0.95 * fs / 2.0) {
         return None;
     }
+    // White rate noise of N, its angle rounded to the grid by the simulator's quantiser (Q is
+    // the angle step over √12; the rate step is the angle step times fs).
     let sigma = n * fs.sqrt();
-    // The angle in units of the grid's angle step (h/fs), starting at a fixed offset.
-    let mut rng = Rng::new(0x616e_676c_6567);
-    let mut angle = 0.3f64;
-    let mut level = angle.round();
-    let y: Vec<f64> = (0..SIMULATED)
-        .map(|_| {
-            angle += rng.gauss() * sigma / step;
-            let next = f64::round(angle);
-            let out = (next - level) * step;
-            level = next;
-            out
-        })
-        .collect();
+    let mut y = Rng::new(0x616e_676c_6567).gauss_vec(SIMULATED);
+    y.iter_mut().for_each(|v| *v *= sigma);
+    quantize(&mut y, fs, step / (fs * 12f64.sqrt()), 0.3);
     let sim = welch(&y, fs, &WelchConfig::new(1024)).ok()?;
     let median_over = |p: &Psd| {
         let mut v: Vec<f64> = p
@@ -112,7 +106,7 @@ pub fn data_over_grid_spectrum(psd: &Psd, step: f64, n: f64, edge_hz: f64) -> Op
 mod tests {
     use super::*;
 
-    /// The recording is the simulated quantiser itself (another seed, another segment length):
+    /// The recording is the simulated quantiser itself (another seed, start and segment length):
     /// the ratio is 1 within a few percent; the same recording through a fourth-order low-pass at
     /// 20 Hz (two all-pole second-order sections with a Butterworth's poles) falls well below the
     /// threshold.
@@ -121,16 +115,9 @@ mod tests {
         let (fs, n) = (100.0, 4.36e-5);
         let step = 3.5 * n * f64::sqrt(fs);
         let quantise = |rate: &[f64]| {
-            let (mut angle, mut level) = (0.7, 1.0f64);
-            rate.iter()
-                .map(|r| {
-                    angle += r / step;
-                    let next = f64::round(angle);
-                    let out = (next - level) * step;
-                    level = next;
-                    out
-                })
-                .collect::<Vec<f64>>()
+            let mut out = rate.to_vec();
+            quantize(&mut out, fs, step / (fs * 12f64.sqrt()), 0.7);
+            out
         };
         let mut rng = Rng::new(5);
         let white: Vec<f64> = (0..200_000).map(|_| rng.gauss() * n * fs.sqrt()).collect();

@@ -60,6 +60,7 @@ pub use channel::ChannelTruth;
 pub use error::SimError;
 pub use flicker::shaped_noise;
 pub use lowpass::lowpass_power_gain;
+pub(crate) use quantize::quantize;
 pub use spec::{
     ChannelSpec, DriftSpec, ExponentialDrift, LineWander, LowPassSpec, ResonanceSpec, SimSpec,
     SinusoidSpec, SpikeSpec, StepSpec, TemperatureSpec,

@@ -569,8 +569,8 @@ fn run_loop(
     };
     // An edge the output's coarse angle grid makes is no filter: fitted again without the
     // filter's response (see `angle_grid::attribute_edge`).
+    let grid = crate::quality::smallest_step(y);
     if let Some(b) = bandwidth.as_mut() {
-        let grid = crate::quality::smallest_step(y);
         if crate::effects::angle_grid::attribute_edge(
             b,
             &psd,
@@ -592,7 +592,7 @@ fn run_loop(
         spectrum,
         stochastic: None,
         changed: false,
-        grid: crate::quality::smallest_step(y).unwrap_or(0.0),
+        grid: grid.unwrap_or(0.0),
     };
     let initial = figures(state.allan.as_ref(), state.spectrum.as_ref());
     let (base_allan, base_spectrum) = (state.allan.clone(), state.spectrum.clone());
