@@ -76,7 +76,7 @@ pub fn average_with_rival(fit: &NoiseFit, rival: &NoiseFit, weight: f64) -> Nois
 /// inversion every interval here uses (ν·c/C distributed as χ²_ν, ν = 2c²/var: the interval
 /// [ν·c/χ²_ν(1 − q), ν·c/χ²_ν(q)] of [`coefficient_interval`]), a point at c when var is 0 and a
 /// point at 0 when c is.
-fn component_cdf(x: f64, c: f64, var: f64) -> f64 {
+pub(crate) fn component_cdf(x: f64, c: f64, var: f64) -> f64 {
     if c <= 0.0 || var <= 0.0 {
         return if x >= c.max(0.0) { 1.0 } else { 0.0 };
     }
@@ -93,7 +93,7 @@ fn component_cdf(x: f64, c: f64, var: f64) -> f64 {
 /// The `p` quantile of the mixture of (weight, c, var) components (see [`component_cdf`]), by
 /// bisection on ln x across 60 decades either side of the largest estimate (a component with ν
 /// well below 1 reaches that far); 0 where the mixture's point at 0 already holds `p`.
-fn mixture_quantile(components: &[(f64, f64, f64); 2], p: f64) -> f64 {
+pub(crate) fn mixture_quantile(components: &[(f64, f64, f64)], p: f64) -> f64 {
     let total: f64 = components.iter().map(|c| c.0).sum();
     let cdf = |x: f64| {
         components
