@@ -31,7 +31,7 @@ const OUTLIERS: usize = 1800;
 const EXCURSION: f64 = 10.0 * 4.363_3e-5 / 3.162_277_7;
 
 struct Case {
-    name: &'static str,
+    name: String,
     filtered: bool,
     extra: serde_json::Value,
     /// The effect planted (`None`: none; any addition is then false).
@@ -121,13 +121,11 @@ fn median(v: &mut [f64]) -> f64 {
     v[v.len() / 2]
 }
 
-fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let seeds: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(50);
-    let seconds: f64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1800.0);
-    let cases = [
+/// The study's cases (`results.md`).
+fn study_cases() -> Vec<Case> {
+    vec![
         Case {
-            name: "clean IEEE (N, B, K)",
+            name: "clean IEEE (N, B, K)".into(),
             filtered: false,
             extra: json!({}),
             expect: None,
@@ -135,7 +133,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "clean, 15-min records",
+            name: "clean, 15-min records".into(),
             filtered: false,
             extra: json!({}),
             expect: None,
@@ -143,7 +141,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "N and B only (no K), 60-min records",
+            name: "N and B only (no K), 60-min records".into(),
             filtered: false,
             extra: json!({ "noise": { "k": 0.0 } }),
             expect: None,
@@ -151,7 +149,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "clean, 6-h records",
+            name: "clean, 6-h records".into(),
             filtered: false,
             extra: json!({}),
             expect: None,
@@ -159,7 +157,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "clean, 24-h records at 10 Hz",
+            name: "clean, 24-h records at 10 Hz".into(),
             filtered: false,
             extra: json!({}),
             expect: None,
@@ -167,7 +165,7 @@ fn main() {
             rate: Some(10.0),
         },
         Case {
-            name: "digital low-pass, order 2 at 20 Hz",
+            name: "digital low-pass, order 2 at 20 Hz".into(),
             filtered: true,
             extra: json!({ "lowpass": { "corner_hz": 20.0, "order": 2 } }),
             expect: None,
@@ -175,7 +173,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "digital low-pass, order 4 at 30 Hz + quantisation",
+            name: "digital low-pass, order 4 at 30 Hz + quantisation".into(),
             filtered: true,
             extra: json!({ "lowpass": { "corner_hz": 30.0, "order": 4 },
                            "noise": { "q": CoefUnit::DegPerSqrtH.to_si(0.15) * 0.1 } }),
@@ -184,7 +182,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "digital low-pass, order 1 at 10 Hz",
+            name: "digital low-pass, order 1 at 10 Hz".into(),
             filtered: true,
             extra: json!({ "lowpass": { "corner_hz": 10.0, "order": 1 } }),
             expect: None,
@@ -192,7 +190,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "wandering line 12 Hz (±0.05 Hz, ±20 %, 10 s) ≈ 100× floor, low-pass order 2 at 25 Hz",
+            name: "wandering line 12 Hz (±0.05 Hz, ±20 %, 10 s) ≈ 100× floor, low-pass order 2 at 25 Hz".into(),
             filtered: true,
             extra: json!({ "lowpass": { "corner_hz": 25.0, "order": 2 },
                 "sinusoids": [{ "amplitude": 3e-4, "freq_hz": 12.0,
@@ -202,7 +200,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "resonance 8 Hz, Q 20, σ 1.5e-4 rad/s (peak ≈ 30× floor)",
+            name: "resonance 8 Hz, Q 20, σ 1.5e-4 rad/s (peak ≈ 30× floor)".into(),
             filtered: false,
             extra: json!({ "resonances": [{ "f0_hz": RESONANCE.0, "q": RESONANCE.1, "sigma": RESONANCE.2 }] }),
             expect: Some("resonance"),
@@ -210,7 +208,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "Gauss–Markov σ 1e-4 rad/s, Tc 60 s (longer than a 41-s Welch segment)",
+            name: "Gauss–Markov σ 1e-4 rad/s, Tc 60 s (longer than a 41-s Welch segment)".into(),
             filtered: false,
             extra: json!({ "gauss_markov": [{ "sigma": 1e-4, "tc_s": 60.0 }] }),
             expect: Some("gauss_markov"),
@@ -218,7 +216,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "the same Gauss–Markov process in 2-h records (120 Tc instead of 30)",
+            name: "the same Gauss–Markov process in 2-h records (120 Tc instead of 30)".into(),
             filtered: false,
             extra: json!({ "gauss_markov": [{ "sigma": 1e-4, "tc_s": 60.0 }] }),
             expect: Some("gauss_markov"),
@@ -226,7 +224,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "temperature coupling 5e-5 rad/s/°C (warm-up 4 °C, Tc 600 s, wander 0.3 °C)",
+            name: "temperature coupling 5e-5 rad/s/°C (warm-up 4 °C, Tc 600 s, wander 0.3 °C)".into(),
             filtered: false,
             extra: json!({ "temperature_coefficient": 5e-5, "temperature": temperature_spec() }),
             expect: Some("coupling"),
@@ -234,7 +232,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "temperature coupling 1e-4 rad/s/°C (the same temperature)",
+            name: "temperature coupling 1e-4 rad/s/°C (the same temperature)".into(),
             filtered: false,
             extra: json!({ "temperature_coefficient": 1e-4, "temperature": temperature_spec() }),
             expect: Some("coupling"),
@@ -242,7 +240,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "independent temperature channel, no coupling (negative control)",
+            name: "independent temperature channel, no coupling (negative control)".into(),
             filtered: false,
             extra: json!({ "temperature": temperature_spec() }),
             expect: None,
@@ -250,7 +248,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "outliers: 1 % of samples ±8 white σ",
+            name: "outliers: 1 % of samples ±8 white σ".into(),
             filtered: false,
             extra: json!({ "spikes": { "count": OUTLIERS, "size": 8.0 * CoefUnit::DegPerSqrtH.to_si(0.15) * FS.sqrt() } }),
             expect: Some("spikes"),
@@ -258,7 +256,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "outliers on a filtered sensor: 1 % of samples ±8 white σ, low-pass order 2 at 20 Hz",
+            name: "outliers on a filtered sensor: 1 % of samples ±8 white σ, low-pass order 2 at 20 Hz".into(),
             filtered: true,
             extra: json!({ "lowpass": { "corner_hz": 20.0, "order": 2 },
                 "spikes": { "count": OUTLIERS, "size": 8.0 * CoefUnit::DegPerSqrtH.to_si(0.15) * FS.sqrt() } }),
@@ -267,7 +265,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "rate output rounded to steps of one white σ (4.36e-4 rad/s)",
+            name: "rate output rounded to steps of one white σ (4.36e-4 rad/s)".into(),
             filtered: false,
             extra: json!({ "lsb": 4.363e-4 }),
             expect: None,
@@ -275,7 +273,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "band-limited bias instability: 1/f only above 16 mHz (a bias correlated over ≈ 10 s)",
+            name: "band-limited bias instability: 1/f only above 16 mHz (a bias correlated over ≈ 10 s)".into(),
             filtered: false,
             extra: json!({ "flicker_corner_hz": 1.0 / (2.0 * std::f64::consts::PI * 10.0) }),
             expect: None,
@@ -283,7 +281,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "heavy-tailed white noise: Student t, 3 degrees of freedom (same N)",
+            name: "heavy-tailed white noise: Student t, 3 degrees of freedom (same N)".into(),
             filtered: false,
             extra: json!({ "white_tail_dof": 3.0 }),
             expect: None,
@@ -291,7 +289,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "heavy-tailed white noise: Student t, 5 degrees of freedom (same N)",
+            name: "heavy-tailed white noise: Student t, 5 degrees of freedom (same N)".into(),
             filtered: false,
             extra: json!({ "white_tail_dof": 5.0 }),
             expect: None,
@@ -299,7 +297,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "angle quantiser Q = 0.9 arcsec, no filter: the output takes four values",
+            name: "angle quantiser Q = 0.9 arcsec, no filter: the output takes four values".into(),
             filtered: false,
             extra: json!({ "noise": { "q": 4.363e-6 } }),
             expect: None,
@@ -307,7 +305,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "warm-up drift, no temperature channel: bias settling from 30 °/h with Tc 300 s",
+            name: "warm-up drift, no temperature channel: bias settling from 30 °/h with Tc 300 s".into(),
             filtered: false,
             extra: json!({ "drift": { "exponential": { "amplitude": CoefUnit::DegPerH.to_si(30.0), "tc_s": 300.0 } } }),
             expect: Some("drift"),
@@ -315,7 +313,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "warm-up drift, no temperature channel: bias settling from 100 °/h with Tc 300 s",
+            name: "warm-up drift, no temperature channel: bias settling from 100 °/h with Tc 300 s".into(),
             filtered: false,
             extra: json!({ "drift": { "exponential": { "amplitude": CoefUnit::DegPerH.to_si(100.0), "tc_s": 300.0 } } }),
             expect: Some("drift"),
@@ -323,7 +321,7 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "bias step: +10σ (10-s means) at 600 s",
+            name: "bias step: +10σ (10-s means) at 600 s".into(),
             filtered: false,
             extra: json!({ "steps": [{ "time_s": 600.0, "size": EXCURSION }] }),
             expect: Some("step"),
@@ -331,14 +329,86 @@ fn main() {
             rate: None,
         },
         Case {
-            name: "excursion: +10σ (10-s means) from 600 s to 900 s",
+            name: "excursion: +10σ (10-s means) from 600 s to 900 s".into(),
             filtered: false,
             extra: json!({ "steps": [{ "time_s": 600.0, "size": EXCURSION }, { "time_s": 900.0, "size": -EXCURSION }] }),
             expect: Some("excursion"),
             seconds: None,
             rate: None,
         },
-    ];
+    ]
+}
+
+/// One case of a detection-limit sweep: `extra` planted in 30-min records, `expect` the effect.
+fn sweep(name: String, extra: serde_json::Value, expect: &'static str) -> Case {
+    Case {
+        name,
+        filtered: false,
+        extra,
+        expect: Some(expect),
+        seconds: None,
+        rate: None,
+    }
+}
+
+/// `VALIDATION_SWEEP=1`: the effects the study plants near their detection limit, each at a
+/// ladder of sizes around the study's own, to say from what size on each is found in 90 % of
+/// records (`validation/detection.md`). Sizes in the units of the study's cases.
+fn sweep_cases() -> Vec<Case> {
+    let mut cases = Vec::new();
+    for sigma in [1.0e-4, 1.5e-4, 2.0e-4, 3.0e-4] {
+        cases.push(sweep(
+            format!("Gauss–Markov Tc 60 s, σ {sigma:.1e} rad/s"),
+            json!({ "gauss_markov": [{ "sigma": sigma, "tc_s": 60.0 }] }),
+            "gauss_markov",
+        ));
+    }
+    for amplitude in [30.0, 50.0, 70.0] {
+        cases.push(sweep(
+            format!("warm-up drift from {amplitude} °/h, Tc 300 s"),
+            json!({ "drift": { "exponential": { "amplitude": CoefUnit::DegPerH.to_si(amplitude), "tc_s": 300.0 } } }),
+            "drift",
+        ));
+    }
+    for coefficient in [5.0e-5, 7.0e-5] {
+        cases.push(sweep(
+            format!("temperature coupling {coefficient:.1e} rad/s/°C (the study's temperature)"),
+            json!({ "temperature_coefficient": coefficient, "temperature": temperature_spec() }),
+            "coupling",
+        ));
+    }
+    for sigmas in [3.0, 5.0, 7.0] {
+        let size = sigmas * EXCURSION / 10.0;
+        cases.push(sweep(
+            format!("bias step +{sigmas}σ (10-s means) at 600 s"),
+            json!({ "steps": [{ "time_s": 600.0, "size": size }] }),
+            "step",
+        ));
+        cases.push(sweep(
+            format!("excursion +{sigmas}σ (10-s means) from 600 s to 900 s"),
+            json!({ "steps": [{ "time_s": 600.0, "size": size }, { "time_s": 900.0, "size": -size }] }),
+            "excursion",
+        ));
+    }
+    for sigma in [0.5e-4, 1.0e-4] {
+        cases.push(sweep(
+            format!("resonance 8 Hz, Q 20, σ {sigma:.1e} rad/s"),
+            json!({ "resonances": [{ "f0_hz": RESONANCE.0, "q": RESONANCE.1, "sigma": sigma }] }),
+            "resonance",
+        ));
+    }
+    cases
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let seeds: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(50);
+    let seconds: f64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1800.0);
+    let cases = if std::env::var_os("VALIDATION_SWEEP").is_some() {
+        sweep_cases()
+    } else {
+        study_cases()
+    };
     let cfg = LoopConfig::with_segment(4096);
     let t = truth();
     let truths = [

@@ -422,7 +422,10 @@ pub fn combine(
                     (Domain::Spectrum, allan)
                 };
                 let mut c = pick(e, domain);
-                let bound = upper(other).filter(|&u| u < e.lo);
+                // Against the value, not the interval's lower end: an ambiguous term's interval
+                // reaches down to where the neighbour's model puts it, 0 where that model weighs
+                // more than the lower tail (`select::averaged_interval`), and no bound is below 0.
+                let bound = upper(other).filter(|&u| u < e.value);
                 if e.ambiguous_with.is_some() && bound.is_some() && term != Term::RateRamp {
                     // Neither fit determines it: this one could not tell it from a neighbour,
                     // the other bounds it below this estimate. No answer beats a wrong one.
@@ -870,9 +873,25 @@ mod tests {
             vec![est(Term::BiasInstability, 1.0, 0.1)],
             vec![(Term::RateRandomWalk, 3.0)],
         );
-        let s = fit(Domain::Spectrum, vec![k], vec![]);
+        let s = fit(Domain::Spectrum, vec![k.clone()], vec![]);
         let c = combine(Some(&a), Some(&s), None);
         assert!(c.get(Term::RateRandomWalk).is_none(), "{c:?}");
         assert!(c.warnings.is_empty());
+        // The same with its interval down to 0 (the model with B in its place weighs more than
+        // the lower tail): still no answer, the bound lies below the value.
+        k.lo = 0.0;
+        let s = fit(Domain::Spectrum, vec![k.clone()], vec![]);
+        let c = combine(Some(&a), Some(&s), None);
+        assert!(c.get(Term::RateRandomWalk).is_none(), "{c:?}");
+        // A bound above the value does not contradict it: kept, with its interval and flag.
+        let a = fit(
+            Domain::Allan,
+            vec![est(Term::BiasInstability, 1.0, 0.1)],
+            vec![(Term::RateRandomWalk, 80.0)],
+        );
+        let c = combine(Some(&a), Some(&s), None);
+        let kept = c.get(Term::RateRandomWalk).expect("kept");
+        assert_eq!((kept.value, kept.lo), (50.0, 0.0));
+        assert_eq!(kept.ambiguous_with, Some(Term::BiasInstability));
     }
 }

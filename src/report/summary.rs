@@ -16,13 +16,19 @@ use crate::units::Unit;
 use super::format::{count, count_as, duration, rate_hz, sig, sig4, Shown};
 use super::model::units_of;
 
+/// One fit's estimate with its interval; a value the fit could not tell from a neighbouring
+/// term's says so (its interval then reaches as low as the neighbour's reading puts it).
 fn cell(e: Option<&TermEstimate>, unit: crate::model::CoefUnit) -> String {
     match e {
         Some(e) => format!(
-            "{} [{}, {}]",
+            "{} [{}, {}]{}",
             sig4(unit.from_si(e.value)),
             sig4(unit.from_si(e.lo)),
-            sig4(unit.from_si(e.hi))
+            sig4(unit.from_si(e.hi)),
+            e.ambiguous_with.map_or(String::new(), |u| format!(
+                " (not told from {})",
+                u.symbol()
+            ))
         ),
         None => "not significant".into(),
     }
@@ -156,7 +162,10 @@ fn file_section(out: &mut String, r: &FileResult) {
     let _ = writeln!(
         out,
         "\n### Evidence: the two fits\n\nEach term as the spectrum (PSD) and the Allan variance (AV) \
-         fits give it; the combined values above come from these."
+         fits give it; the combined values above come from these. A value marked \"not told from\" \
+         is one the fit could not tell from the neighbouring term named: a model with that term in \
+         its place fits as well, and the interval reaches down as far as that model puts it \
+         (to 0 where it weighs more than the interval's lower tail)."
     );
     for sensor in [Sensor::Gyro, Sensor::Accel] {
         let channels: Vec<&ChannelAnalysis> =
