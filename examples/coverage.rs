@@ -72,6 +72,11 @@ fn fits(seed: u64, seconds: f64, truth: &Coefficients) -> [NoiseFit; 2] {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let seeds: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1000);
+    // `COVERAGE_FIRST_SEED=900000` draws the validation's own seeds instead.
+    let first: u64 = std::env::var("COVERAGE_FIRST_SEED")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(FIRST_SEED);
     let mut lengths: Vec<f64> = args.iter().skip(2).filter_map(|s| s.parse().ok()).collect();
     if lengths.is_empty() {
         lengths = vec![900.0, 1800.0, 7200.0];
@@ -92,7 +97,7 @@ fn main() {
     for seconds in lengths {
         let all: Vec<[NoiseFit; 2]> = (0..seeds)
             .into_par_iter()
-            .map(|s| fits(FIRST_SEED + s, seconds, &truth))
+            .map(|s| fits(first + s, seconds, &truth))
             .collect();
         for (k, domain) in ["Allan", "spectrum"].iter().enumerate() {
             for (term, v) in terms {

@@ -363,6 +363,15 @@ fn sweep_cases() -> Vec<Case> {
             "gauss_markov",
         ));
     }
+    // The same process with more correlation times per record (60 instead of 30).
+    cases.push(Case {
+        seconds: Some(3600.0),
+        ..sweep(
+            "Gauss–Markov Tc 60 s, σ 1.0e-4 rad/s, 60-min records".into(),
+            json!({ "gauss_markov": [{ "sigma": 1.0e-4, "tc_s": 60.0 }] }),
+            "gauss_markov",
+        )
+    });
     for amplitude in [30.0, 50.0, 70.0] {
         cases.push(sweep(
             format!("warm-up drift from {amplitude} °/h, Tc 300 s"),

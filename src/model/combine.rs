@@ -738,6 +738,7 @@ mod tests {
             hi: value * (1.0 + rel),
             edf: 100.0,
             ambiguous_with: None,
+            zero_share: 0.0,
         }
     }
 

@@ -61,6 +61,12 @@ pub struct TermEstimate {
     /// chosen one. The value is then not determined by this fit (a spectrum whose lowest band lies
     /// above K's regime trades B for K).
     pub ambiguous_with: Option<Term>,
+    /// Share of the weight that the term subsets averaged into this estimate put at 0 (those
+    /// that lack the term; [`crate::model::SELECTION_WINDOW`]): the point at 0 of the mixture its
+    /// interval is a quantile range of, which averaging with a rival model must carry over
+    /// (`model::average`). Not in the report: the interval already says what it does.
+    #[serde(skip)]
+    pub zero_share: f64,
 }
 
 impl TermEstimate {

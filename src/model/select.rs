@@ -173,6 +173,7 @@ pub(crate) fn select_and_fit(
                 hi,
                 edf,
                 ambiguous_with: ambiguous_with(j, mask, allowed, &fits),
+                zero_share: zero_share(j, &rivals),
             }
         })
         .collect();
@@ -314,6 +315,18 @@ fn unconditional_variance(mean: f64, chosen: f64, var: f64, j: usize, rivals: &[
         total += r.weight;
     }
     var + spread / total
+}
+
+/// The share of the total weight (the chosen subset 1, its rivals e^(−Δ/2)) held by the rivals
+/// that lack term `j`: the point at 0 of [`averaged_interval`]'s mixture.
+fn zero_share(j: usize, rivals: &[Rival]) -> f64 {
+    let total = 1.0 + rivals.iter().map(|r| r.weight).sum::<f64>();
+    rivals
+        .iter()
+        .filter(|r| r.c[j] <= 0.0)
+        .map(|r| r.weight)
+        .sum::<f64>()
+        / total
 }
 
 /// (lo, hi, ν) of term `j`'s coefficient once the choice of subset is counted as uncertain: the
