@@ -577,7 +577,13 @@ fn main() {
                 {
                     if case.expect == Some("resonance") {
                         tally.resonances_found += 1;
-                        let (f0_t, q_t, s_t) = RESONANCE;
+                        // The case's own resonance (the sweep plants other σ than the study's).
+                        let planted = &case.extra["resonances"][0];
+                        let (f0_t, q_t, s_t) = (
+                            planted["f0_hz"].as_f64().unwrap_or(RESONANCE.0),
+                            planted["q"].as_f64().unwrap_or(RESONANCE.1),
+                            planted["sigma"].as_f64().unwrap_or(RESONANCE.2),
+                        );
                         let checks = [
                             (*f0_hz, *f0_lo, *f0_hi, f0_t),
                             (*q, *q_lo, *q_hi, q_t),
