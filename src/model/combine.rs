@@ -874,14 +874,14 @@ mod tests {
             vec![est(Term::BiasInstability, 1.0, 0.1)],
             vec![(Term::RateRandomWalk, 3.0)],
         );
-        let s = fit(Domain::Spectrum, vec![k.clone()], vec![]);
+        let s = fit(Domain::Spectrum, vec![k], vec![]);
         let c = combine(Some(&a), Some(&s), None);
         assert!(c.get(Term::RateRandomWalk).is_none(), "{c:?}");
         assert!(c.warnings.is_empty());
         // The same with its interval down to 0 (the model with B in its place weighs more than
         // the lower tail): still no answer, the bound lies below the value.
         k.lo = 0.0;
-        let s = fit(Domain::Spectrum, vec![k.clone()], vec![]);
+        let s = fit(Domain::Spectrum, vec![k], vec![]);
         let c = combine(Some(&a), Some(&s), None);
         assert!(c.get(Term::RateRandomWalk).is_none(), "{c:?}");
         // A bound above the value does not contradict it: kept, with its interval and flag.
