@@ -226,9 +226,18 @@ fn read_off_cells(read: Option<&crate::model::ReadOff>, u: crate::model::CoefUni
             sig4(r.tau_s)
         )
     });
-    let slope = read
-        .filter(|r| r.slope.is_finite())
-        .map_or("–".into(), |r| format!("{:+.2}", r.slope));
+    // B's read-off without a slope: the lowest σ is the τ grid's first or last point, where the
+    // curve has not turned (no plateau), so min σ/0.664 is not B there and the fit is not checked
+    // against it (see `model::combine`).
+    let slope = read.map_or("–".into(), |r| {
+        if r.slope.is_finite() {
+            format!("{:+.2}", r.slope)
+        } else if r.term == crate::model::Term::BiasInstability {
+            "none: lowest σ at the τ grid's end, no plateau".into()
+        } else {
+            "–".into()
+        }
+    });
     format!("{value} | {slope}")
 }
 
