@@ -69,7 +69,10 @@ pub fn average_with_rival(fit: &NoiseFit, rival: &NoiseFit, weight: f64) -> Nois
         let mut mixture = Vec::with_capacity(4);
         for (w, c, v, z) in [(1.0, c0, v0, z0), (weight, c1, v1, z1)] {
             if z > 0.0 && z < 1.0 && c > 0.0 {
-                // The part with the term: its mean c/(1 − z), its relative spread kept.
+                // The part with the term: its mean c/(1 − z), with the relative spread of the
+                // whole reading (its ν is moment-matched over the subsets, the point at 0
+                // included, so this part comes out somewhat wider than its own: the cautious
+                // side; the estimate carries no finer record of its subsets).
                 let scale = 1.0 / (1.0 - z);
                 mixture.push((w * z, 0.0, 0.0));
                 mixture.push((w * (1.0 - z), c * scale, v * scale * scale));
@@ -93,7 +96,7 @@ pub fn average_with_rival(fit: &NoiseFit, rival: &NoiseFit, weight: f64) -> Nois
 /// inversion every interval here uses (ν·c/C distributed as χ²_ν, ν = 2c²/var: the interval
 /// [ν·c/χ²_ν(1 − q), ν·c/χ²_ν(q)] of [`coefficient_interval`]), a point at c when var is 0 and a
 /// point at 0 when c is.
-pub(crate) fn component_cdf(x: f64, c: f64, var: f64) -> f64 {
+fn component_cdf(x: f64, c: f64, var: f64) -> f64 {
     if c <= 0.0 || var <= 0.0 {
         return if x >= c.max(0.0) { 1.0 } else { 0.0 };
     }

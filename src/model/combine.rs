@@ -21,8 +21,9 @@
 //! A term a fit could not tell from a neighbour (a model with the neighbour in its place scored
 //! within 6 BIC units: [`TermEstimate::ambiguous_with`]) yields to the other fit's estimate when
 //! that one is clear, and a disagreement involving it widens the interval without a warning; kept
-//! by one fit only, ambiguous there and bounded below its interval by the other, it has no
-//! combined value (neither fit determines it).
+//! by one fit only, ambiguous there and bounded below its value by the other, it has no combined
+//! value (neither fit determines it; below its value, not its interval's lower end, which for an
+//! ambiguous term reaches down to where the neighbour's model puts it, often 0).
 //!
 //! **Read-offs.** What an engineer reads off the Allan deviation by hand (IEEE Std 952 Annex C):
 //! N = σ(1 s), B = min σ / 0.664, K = σ(3 s), with the measured points' intervals. Each is an
