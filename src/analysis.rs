@@ -12,12 +12,12 @@
 use serde::Serialize;
 
 use crate::avar::{Deviations, Statistic};
-use crate::effects::angle_grid::attribute_edge;
+use crate::effects::band::fit_in_band;
 use crate::effects::{close_loop_from_base, AuxSeries, LoopConfig, LoopReport};
 use crate::estimate::{ChannelDeviations, ChannelPsd};
 use crate::model::{
-    combine, compare, detect_bandwidth, fit_avar, fit_psd, rounding_warning, Bandwidth, Combined,
-    FitError, FitOptions, NoiseFit, Sensor, Term, TermComparison,
+    combine, compare, rounding_warning, Bandwidth, Combined, FitError, FitOptions, NoiseFit,
+    Sensor, Term, TermComparison,
 };
 
 /// One channel's fits.
@@ -146,7 +146,7 @@ fn fit_and_close(
     opts: &FitOptions,
     loop_cfg: Option<&LoopConfig>,
 ) -> ChannelAnalysis {
-    let mut a = fit_channel(
+    let (mut a, options) = fit_channel_with_options(
         input.sensor,
         input.psd,
         input.deviations,
@@ -159,13 +159,9 @@ fn fit_and_close(
         return a;
     };
     // The loop fits and searches with the base fits' options, inside the band they kept (its
-    // own `fit` options are replaced by `opts`, so that the base fits handed to it are its own).
+    // own `fit` options are replaced by them, so that the base fits handed to it are its own).
     let mut cfg = cfg.clone();
-    cfg.fit = match &a.bandwidth {
-        Some(b) => b.restrict(opts),
-        None => opts.clone(),
-    };
-    cfg.fit.detect_bandwidth = false;
+    cfg.fit = options;
     let initial = (dev.clone(), input.psd.psd.clone(), binned.clone());
     // The base fits were made above with these options on these estimates: handed over, not
     // repeated.
@@ -191,9 +187,9 @@ fn fit_and_close(
 }
 
 /// Fits one channel from its estimates: the OADEV of `deviations` and the binned spectrum of `psd`,
-/// inside the sensor's bandwidth when `opts.detect_bandwidth` and the spectrum shows a roll-off.
-/// `output_step`: the smallest step between the samples, which tells a coarse angle quantiser's
-/// edge from a filter's ([`attribute_edge`]; the fits are then made again without the filter's
+/// inside the sensor's bandwidth when `opts.detect_bandwidth` and the spectrum shows a roll-off
+/// ([`fit_in_band`]). `output_step`: the smallest step between the samples, which tells a coarse
+/// angle quantiser's edge from a filter's (the fits are then made again without the filter's
 /// response).
 pub fn fit_channel(
     sensor: Sensor,
@@ -202,56 +198,32 @@ pub fn fit_channel(
     opts: &FitOptions,
     output_step: Option<f64>,
 ) -> ChannelAnalysis {
+    fit_channel_with_options(sensor, psd, deviations, opts, output_step).0
+}
+
+/// [`fit_channel`] and the options its fits were made with (restricted to the band).
+fn fit_channel_with_options(
+    sensor: Sensor,
+    psd: &ChannelPsd,
+    deviations: &ChannelDeviations,
+    opts: &FitOptions,
+    output_step: Option<f64>,
+) -> (ChannelAnalysis, FitOptions) {
     let dev = oadev(deviations);
-    let mut bandwidth = match (&psd.binned, opts.detect_bandwidth) {
-        (Some(binned), true) => {
-            let taus = dev.map_or(&[][..], |d| &d.tau_s[..]);
-            detect_bandwidth(&psd.psd, binned, taus, opts)
-        }
-        _ => None,
-    };
-    let fits = |opts: &FitOptions| {
-        let allan = dev
-            .ok_or(FitError::InvalidOptions(
-                "the Allan fit needs the overlapping Allan variance (oadev)".into(),
-            ))
-            .and_then(|d| fit_avar(d, opts));
-        let spectrum = match &psd.binned {
-            Some(binned) => fit_psd(&psd.psd, binned, opts),
-            None => Err(FitError::InvalidOptions(
-                "the spectrum fit needs the log-binned spectrum (bins per decade > 0)".into(),
-            )),
-        };
-        (allan, spectrum)
-    };
-    let (mut allan, mut spectrum) = fits(
-        &bandwidth
-            .as_ref()
-            .map_or_else(|| opts.clone(), |b| b.restrict(opts)),
-    );
-    if let Some(b) = bandwidth.as_mut() {
-        if attribute_edge(
-            b,
-            &psd.psd,
-            output_step,
-            allan.as_ref().ok(),
-            spectrum.as_ref().ok(),
-        ) {
-            (allan, spectrum) = fits(&b.restrict(opts));
-        }
-    }
-    let comparison = comparison(&allan, &spectrum);
-    let combined = combine(allan.as_ref().ok(), spectrum.as_ref().ok(), dev);
-    ChannelAnalysis {
+    let base = fit_in_band(dev, &psd.psd, psd.binned.as_ref(), opts, output_step);
+    let comparison = comparison(&base.allan, &base.spectrum);
+    let combined = combine(base.allan.as_ref().ok(), base.spectrum.as_ref().ok(), dev);
+    let analysis = ChannelAnalysis {
         channel: psd.channel.clone(),
         sensor,
-        bandwidth,
+        bandwidth: base.bandwidth,
         combined,
-        allan,
-        spectrum,
+        allan: base.allan,
+        spectrum: base.spectrum,
         comparison,
         residual_loop: None,
-    }
+    };
+    (analysis, base.options)
 }
 
 /// The overlapping Allan variance among a channel's statistics.

@@ -1,12 +1,14 @@
 //! Effects the IEEE noise model lacks, found in what the base fit leaves unexplained, and the loop
 //! that adds them ([`closing::close_loop`]).
 //!
+//! - [`band`]: the base fits inside the sensor's band (shared by `analyze` and the loop).
 //! - [`residuals`]: structure tests on a fit's normalised residuals.
 //! - [`lines`]: narrow excesses of the raw spectrum over the model (lines, resonances).
 //! - [`shapes`]: stochastic effects fitted as one more model column (Gauss–Markov, resonance).
 //! - [`time`]: effects that live in the time series (coupling to an aux channel, spikes, bias
 //!   steps, sinusoid regression, split-record stationarity).
 pub mod angle_grid;
+pub mod band;
 pub mod closing;
 pub mod excursion;
 pub mod lines;

@@ -34,13 +34,14 @@ use serde::Serialize;
 
 use crate::avar::{compute, Confidence, Deviations, Statistic, TauGrid};
 use crate::model::{
-    average_with_rival, bic_weight, detect_bandwidth, fit_avar_with, fit_psd_with, Bandwidth,
-    EffectEstimate, EffectShape, FitOptions, FitWarning, NoiseFit, Term, SELECTION_WINDOW,
+    average_with_rival, bic_weight, fit_avar_with, fit_psd_with, Bandwidth, EffectEstimate,
+    EffectShape, FitOptions, FitWarning, NoiseFit, Term, SELECTION_WINDOW,
 };
 use crate::psd::{
     log_bin, log_bin_resolving, neighbour_redundancy, welch, BinnedPsd, Psd, WelchConfig,
 };
 
+use super::band::fit_in_band;
 use super::excursion::{
     excursion_under_model, remove_excursion, BoxSearch, Excursion, LevelChange,
 };
@@ -549,39 +550,19 @@ fn run_loop(
         Some(e) => e,
         None => estimates(y, fs, cfg)?,
     };
-    // Fit and search only inside the sensor's bandwidth (see `model::bandwidth`).
+    // Fit and search only inside the sensor's bandwidth (see `model::bandwidth`): the caller's
+    // base fits where it made them (on these estimates, inside the band, with these options),
+    // else the same flow as `analyze`'s ([`fit_in_band`]).
     let mut cfg = cfg.clone();
-    let mut bandwidth = if cfg.fit.detect_bandwidth {
-        cfg.fit.detect_bandwidth = false;
-        detect_bandwidth(&psd, &binned, &dev.tau_s, &cfg.fit)
-    } else {
-        None
-    };
-    let unrestricted = cfg.fit.clone();
-    if let Some(b) = &bandwidth {
-        cfg.fit = b.restrict(&unrestricted);
-    }
-    // The caller's base fits, where it made them on these estimates with these options (no band
-    // detected here: the options are unchanged).
-    let (mut allan, mut spectrum) = match base {
-        Some(b) if bandwidth.is_none() => b,
-        _ => fits(&dev, &psd, &binned, &cfg, None),
-    };
-    // An edge the output's coarse angle grid makes is no filter: fitted again without the
-    // filter's response (see `angle_grid::attribute_edge`).
     let grid = crate::quality::smallest_step(y);
-    if let Some(b) = bandwidth.as_mut() {
-        if crate::effects::angle_grid::attribute_edge(
-            b,
-            &psd,
-            grid,
-            allan.as_ref(),
-            spectrum.as_ref(),
-        ) {
-            cfg.fit = b.restrict(&unrestricted);
-            (allan, spectrum) = fits(&dev, &psd, &binned, &cfg, None);
+    let (bandwidth, allan, spectrum) = match base {
+        Some((allan, spectrum)) => (None, allan, spectrum),
+        None => {
+            let b = fit_in_band(Some(&dev), &psd, Some(&binned), &cfg.fit, grid);
+            cfg.fit = b.options;
+            (b.bandwidth, b.allan.ok(), b.spectrum.ok())
         }
-    }
+    };
     let cfg = &cfg;
     let mut state = State {
         y: Cow::Borrowed(y),
