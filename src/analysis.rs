@@ -12,7 +12,8 @@
 use serde::Serialize;
 
 use crate::avar::{Deviations, Statistic};
-use crate::effects::band::fit_in_band;
+use crate::effects::band::{fit_in_band, BandFits, Series};
+use crate::effects::ramp::{widen_ramp, RampTest};
 use crate::effects::{close_loop_from_base, AuxSeries, LoopConfig, LoopReport};
 use crate::estimate::{ChannelDeviations, ChannelPsd};
 use crate::model::{
@@ -146,13 +147,7 @@ fn fit_and_close(
     opts: &FitOptions,
     loop_cfg: Option<&LoopConfig>,
 ) -> ChannelAnalysis {
-    let (mut a, options) = fit_channel_with_options(
-        input.sensor,
-        input.psd,
-        input.deviations,
-        opts,
-        input.output_step,
-    );
+    let (mut a, options, ramp) = fit_channel(&input, opts);
     let (Some(cfg), Some(binned), Some(dev)) =
         (loop_cfg, &input.psd.binned, oadev(input.deviations))
     else {
@@ -170,11 +165,17 @@ fn fit_and_close(
         close_loop_from_base(input.samples, input.rate_hz, aux, &cfg, initial, base)
     {
         if !outcome.report.steps.is_empty() || outcome.report.rival.is_some() {
-            if let Some(f) = outcome.allan {
-                a.allan = Ok(f);
-            }
-            if let Some(f) = outcome.spectrum {
-                a.spectrum = Ok(f);
+            for (fit, out) in [
+                (&mut a.allan, outcome.allan),
+                (&mut a.spectrum, outcome.spectrum),
+            ] {
+                if let Some(mut f) = out {
+                    // The loop's refits keep a determined ramp's Fisher interval only.
+                    if let Some(test) = &ramp {
+                        widen_ramp(&mut f, test);
+                    }
+                    *fit = Ok(f);
+                }
             }
             a.comparison = comparison(&a.allan, &a.spectrum);
             let final_dev = outcome.report.corrected.as_ref().map_or(dev, |(d, _)| d);
@@ -186,44 +187,39 @@ fn fit_and_close(
     a
 }
 
-/// Fits one channel from its estimates: the OADEV of `deviations` and the binned spectrum of `psd`,
-/// inside the sensor's bandwidth when `opts.detect_bandwidth` and the spectrum shows a roll-off
-/// ([`fit_in_band`]). `output_step`: the smallest step between the samples, which tells a coarse
-/// angle quantiser's edge from a filter's (the fits are then made again without the filter's
-/// response).
-pub fn fit_channel(
-    sensor: Sensor,
-    psd: &ChannelPsd,
-    deviations: &ChannelDeviations,
+/// The base fits of one channel from its estimates, and the options they were made with: the OADEV
+/// of `input.deviations` and the binned spectrum of `input.psd`, inside the sensor's bandwidth
+/// when `opts.detect_bandwidth` and the spectrum shows a roll-off, a rate ramp only where the
+/// samples determine it ([`fit_in_band`]). `input.output_step`, the smallest step between the
+/// samples, tells a coarse angle quantiser's edge from a filter's (the fits are then made again
+/// without the filter's response).
+fn fit_channel(
+    input: &ChannelInput<'_>,
     opts: &FitOptions,
-    output_step: Option<f64>,
-) -> ChannelAnalysis {
-    fit_channel_with_options(sensor, psd, deviations, opts, output_step).0
-}
-
-/// [`fit_channel`] and the options its fits were made with (restricted to the band).
-fn fit_channel_with_options(
-    sensor: Sensor,
-    psd: &ChannelPsd,
-    deviations: &ChannelDeviations,
-    opts: &FitOptions,
-    output_step: Option<f64>,
-) -> (ChannelAnalysis, FitOptions) {
-    let dev = oadev(deviations);
-    let base = fit_in_band(dev, &psd.psd, psd.binned.as_ref(), opts, output_step);
-    let comparison = comparison(&base.allan, &base.spectrum);
-    let combined = combine(base.allan.as_ref().ok(), base.spectrum.as_ref().ok(), dev);
+) -> (ChannelAnalysis, FitOptions, Option<RampTest>) {
+    let (psd, dev) = (input.psd, oadev(input.deviations));
+    let series = Series {
+        samples: input.samples,
+        output_step: input.output_step,
+    };
+    let BandFits {
+        bandwidth,
+        options,
+        allan,
+        spectrum,
+        ramp,
+    } = fit_in_band(dev, &psd.psd, psd.binned.as_ref(), opts, series);
     let analysis = ChannelAnalysis {
         channel: psd.channel.clone(),
-        sensor,
-        bandwidth: base.bandwidth,
-        combined,
-        allan: base.allan,
-        spectrum: base.spectrum,
-        comparison,
+        sensor: input.sensor,
+        bandwidth,
+        combined: combine(allan.as_ref().ok(), spectrum.as_ref().ok(), dev),
+        comparison: comparison(&allan, &spectrum),
+        allan,
+        spectrum,
         residual_loop: None,
     };
-    (analysis, base.options)
+    (analysis, options, ramp)
 }
 
 /// The overlapping Allan variance among a channel's statistics.

@@ -2,6 +2,7 @@
 //! that adds them ([`closing::close_loop`]).
 //!
 //! - [`band`]: the base fits inside the sensor's band (shared by `analyze` and the loop).
+//! - [`ramp`]: whether the time series determines a rate ramp the Allan fit kept.
 //! - [`residuals`]: structure tests on a fit's normalised residuals.
 //! - [`lines`]: narrow excesses of the raw spectrum over the model (lines, resonances).
 //! - [`shapes`]: stochastic effects fitted as one more model column (Gauss–Markov, resonance).
@@ -12,6 +13,7 @@ pub mod band;
 pub mod closing;
 pub mod excursion;
 pub mod lines;
+pub mod ramp;
 pub mod regression;
 pub mod residuals;
 pub mod shapes;

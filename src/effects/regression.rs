@@ -225,6 +225,36 @@ impl IncrementModel {
         (d.len() == self.m).then(|| Whitened(self.whiten(d)))
     }
 
+    /// The mean of the increments (a ramp's block-to-block rise) by generalised least squares on
+    /// increments already whitened: the intercept alone. Its `t` tests a zero mean (Student,
+    /// m − 1 degrees of freedom, the model's level estimated from the residuals).
+    pub fn mean_increment(&self, u: &Whitened) -> Option<Gls> {
+        let (u, o) = (&u.0, &self.ones);
+        let soo: f64 = o.iter().map(|v| v * v).sum();
+        if u.len() != self.m || soo.is_nan() || soo <= 0.0 {
+            return None;
+        }
+        let a = o.iter().zip(u).map(|(p, q)| p * q).sum::<f64>() / soo;
+        let rss: f64 = u.iter().zip(o).map(|(q, p)| (q - a * p).powi(2)).sum();
+        let dof = (self.m - 1) as f64;
+        let scale = rss / dof;
+        let se = (scale / soo).sqrt();
+        let t = if se > 0.0 { a / se } else { 0.0 };
+        Some(Gls {
+            beta: a,
+            se,
+            t,
+            p: if se > 0.0 {
+                2.0 * t_sf(t.abs(), dof)
+            } else {
+                1.0
+            },
+            dof,
+            scale,
+            reliability: 1.0,
+        })
+    }
+
     /// [`IncrementModel::regress`] of increments already whitened by [`IncrementModel::whitened`].
     pub fn regress_whitened(&self, u: &Whitened, x: &[f64], x_noise: f64) -> Option<Gls> {
         let m = self.m;

@@ -41,11 +41,12 @@ use crate::psd::{
     log_bin, log_bin_resolving, neighbour_redundancy, welch, BinnedPsd, Psd, WelchConfig,
 };
 
-use super::band::fit_in_band;
+use super::band::{fit_in_band, Series};
 use super::excursion::{
     excursion_under_model, remove_excursion, BoxSearch, Excursion, LevelChange,
 };
 use super::lines::{find_excess, Excess};
+use super::ramp::{ramp_free_density, widen_ramp};
 use super::regression::{IncrementModel, MAX_INCREMENTS};
 use super::residuals::{diagnose, Diagnostics};
 use super::shapes::{GaussMarkov1, Resonance};
@@ -418,24 +419,15 @@ fn model_one_sided(fit: &NoiseFit, stochastic: Option<&Stochastic>, f: f64, fs: 
     density_of(kept, fit, stochastic, f, fs)
 }
 
-/// The noise density (one-sided) of a fit's model for the regressions of slow effects: without
-/// the rate ramp (a ramp's increments are a constant, which their intercept absorbs), and with
-/// the terms the criterion left out at their upper limits. A term too weak to be admitted is not
-/// absent, and slow noise missing from the covariance would make a slow regressor look
-/// significant: the regressions err on the side of too much noise.
+/// The noise density (one-sided) of a fit's model for the regressions of slow effects
+/// ([`ramp_free_density`]) with the fit's stochastic effect.
 fn noise_density<'a>(
     fit: &'a NoiseFit,
     stochastic: Option<&'a Stochastic>,
     fs: f64,
 ) -> impl Fn(f64) -> f64 + 'a {
-    move |f| {
-        let kept = fit.estimates.iter().map(|e| (e.term, e.value));
-        let left_out = fit.upper_limits.iter().map(|u| (u.term, u.upper));
-        let terms = kept
-            .chain(left_out)
-            .filter(|(term, v)| *term != Term::RateRamp && v.is_finite());
-        density_of(terms, fit, stochastic, f, fs)
-    }
+    let base = ramp_free_density(fit, fs);
+    move |f| base(f) + density_of(std::iter::empty(), fit, stochastic, f, fs)
 }
 
 /// A candidate for this round: its ΔBIC, what it would add, and the evidence.
@@ -555,12 +547,16 @@ fn run_loop(
     // else the same flow as `analyze`'s ([`fit_in_band`]).
     let mut cfg = cfg.clone();
     let grid = crate::quality::smallest_step(y);
-    let (bandwidth, allan, spectrum) = match base {
-        Some((allan, spectrum)) => (None, allan, spectrum),
+    let (bandwidth, ramp, allan, spectrum) = match base {
+        Some((allan, spectrum)) => (None, None, allan, spectrum),
         None => {
-            let b = fit_in_band(Some(&dev), &psd, Some(&binned), &cfg.fit, grid);
+            let series = Series {
+                samples: y,
+                output_step: grid,
+            };
+            let b = fit_in_band(Some(&dev), &psd, Some(&binned), &cfg.fit, series);
             cfg.fit = b.options;
-            (b.bandwidth, b.allan.ok(), b.spectrum.ok())
+            (b.bandwidth, b.ramp, b.allan.ok(), b.spectrum.ok())
         }
     };
     let cfg = &cfg;
@@ -679,6 +675,16 @@ fn run_loop(
         average(&mut state.spectrum, spectrum);
         Some(rival)
     });
+    // The refits keep a determined ramp's Fisher interval only (see `ramp`; a caller that
+    // handed its base fits in widens them itself).
+    if let Some(test) = &ramp {
+        for f in [&mut state.allan, &mut state.spectrum]
+            .into_iter()
+            .flatten()
+        {
+            widen_ramp(f, test);
+        }
+    }
     let report = LoopReport {
         bandwidth,
         initial,
