@@ -46,7 +46,7 @@ use super::excursion::{
     excursion_under_model, remove_excursion, BoxSearch, Excursion, LevelChange,
 };
 use super::lines::{find_excess, Excess};
-use super::ramp::{ramp_free_density, widen_ramp};
+use super::ramp::{ramp_free_density, test_ramp, widen_ramp, without_ramp};
 use super::regression::{IncrementModel, MAX_INCREMENTS};
 use super::residuals::{diagnose, Diagnostics};
 use super::shapes::{GaussMarkov1, Resonance};
@@ -643,6 +643,18 @@ fn run_loop(
             after,
         });
     }
+    // A ramp the base fits kept because the series showed one may have been a step's, a
+    // warm-up's or a coupling's slope that the loop took out: asked again of the corrected series
+    // (as in `band`), and without R from here on (the rival's refit included) if it is gone.
+    let flat_cfg;
+    let cfg = match ramp_gone(&state, fs, cfg) {
+        Some((flat, allan, spectrum)) => {
+            (state.allan, state.spectrum) = (allan, spectrum);
+            flat_cfg = flat;
+            &flat_cfg
+        }
+        None => cfg,
+    };
     let final_figures = figures(state.allan.as_ref(), state.spectrum.as_ref());
     // Where the final fits' intervals must also count the rival model (the figures above stay
     // the final model's: it is the one drawn).
@@ -704,6 +716,29 @@ fn run_loop(
         allan: state.allan,
         spectrum: state.spectrum,
     })
+}
+
+/// Where the loop corrected the series and a final fit still keeps a rate ramp that the corrected
+/// series does not determine ([`super::ramp`]): the configuration without R and both fits made
+/// again with it.
+fn ramp_gone(
+    state: &State,
+    fs: f64,
+    cfg: &LoopConfig,
+) -> Option<(LoopConfig, Option<NoiseFit>, Option<NoiseFit>)> {
+    let keeps = |f: &Option<NoiseFit>| f.as_ref().is_some_and(|f| f.get(Term::RateRamp).is_some());
+    if !state.changed || !(keeps(&state.allan) || keeps(&state.spectrum)) {
+        return None;
+    }
+    let mut flat = cfg.clone();
+    flat.fit = without_ramp(&cfg.fit);
+    let shape = state.stochastic.as_ref().map(Stochastic::shape);
+    let (allan, spectrum) = fits(&state.dev, &state.psd, &state.binned, &flat, shape);
+    let test = allan
+        .as_ref()
+        .or(spectrum.as_ref())
+        .and_then(|m| test_ramp(&state.y, fs, m))?;
+    (!test.determined()).then_some((flat, allan, spectrum))
 }
 
 /// The loop's report and the final fits (base terms and the stochastic effect, on the corrected
