@@ -101,6 +101,9 @@ fn main() {
                 let f = fit(FIRST_SEED + s, seconds, &truth, series);
                 let e = f.get(Term::RateRamp);
                 let kept = e.is_some();
+                if kept && std::env::var("RAMP_SEEDS").is_ok() {
+                    eprintln!("kept R: seed {}", FIRST_SEED + s);
+                }
                 let zero = e.is_some_and(|e| e.lo <= 0.0);
                 let covers = e.map_or(truth.r == 0.0, |e| e.covers(truth.r));
                 (
