@@ -106,6 +106,9 @@ fn main() {
                 }
                 let zero = e.is_some_and(|e| e.lo <= 0.0);
                 let covers = e.map_or(truth.r == 0.0, |e| e.covers(truth.r));
+                if let (Some(e), true) = (e, std::env::var("RAMP_SEEDS").is_ok()) {
+                    eprintln!("half-width {:.3}", (e.hi - e.lo) / 2.0 / e.value);
+                }
                 (
                     kept,
                     zero,

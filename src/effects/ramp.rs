@@ -6,7 +6,7 @@
 //! points, not the random walk's: measured on 1800-s records (N 0.15 °/√h, B 3 °/h,
 //! K 20 °/h/√h, 100 Hz, `examples/ramp_check.rs`), the base Allan fit kept a ramp in 8 of 300
 //! records without one, with intervals that excluded 0, and where a ramp of 400 °/h/h was planted
-//! its 1σ interval covered it in 14 of 60 (ratios 0.84–1.23, the interval ±2–3 %).
+//! its 1σ interval covered it in 14 of 60 (ratios 0.84–1.23, the interval ±2.4 % at the median, ±1.3–6.7 %).
 //!
 //! **The test.** A ramp of R moves the block means of the series by R·(block length) per block,
 //! so it is the mean of their increments, which every other IEEE noise keeps at zero. Under the
