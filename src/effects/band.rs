@@ -152,26 +152,10 @@ fn fits(
 mod tests {
     use super::*;
     use crate::avar::{compute, Confidence, Statistic, TauGrid};
-    use crate::model::{CoefUnit, Coefficients};
+    use crate::effects::ramp::tests::series;
     use crate::psd::{log_bin, welch, WelchConfig};
-    use crate::sim::{simulate, SimSpec};
 
     const FS: f64 = 100.0;
-
-    /// A 30-min gyro record (N 0.15 °/√h, B 3 °/h, K 20 °/h/√h) with a ramp of `r` °/h/h.
-    fn record(seed: u64, r: f64) -> Vec<f64> {
-        let truth = Coefficients {
-            n: CoefUnit::DegPerSqrtH.to_si(0.15),
-            b: CoefUnit::DegPerH.to_si(3.0),
-            k: CoefUnit::DegPerHPerSqrtH.to_si(20.0),
-            r: r.to_radians() / 3600.0 / 3600.0,
-            ..Default::default()
-        };
-        let spec = serde_json::json!({ "rate_hz": FS, "duration_s": 1800.0, "seed": seed,
-            "channels": [{ "name": "g", "sensor": "gyro", "noise": truth }] });
-        let spec: SimSpec = serde_json::from_value(spec).unwrap();
-        simulate(&spec).unwrap().into_columns().0.remove(0)
-    }
 
     /// The Allan fit alone and the base fits' flow of `y`.
     fn both(y: &[f64]) -> (NoiseFit, BandFits) {
@@ -203,7 +187,7 @@ mod tests {
     #[test]
     fn a_ramp_the_series_does_not_show_is_dropped() {
         for seed in [163, 166, 175, 183, 187, 233, 100, 258] {
-            let y = record(11_000_000 + seed, 0.0);
+            let y = series(11_000_000 + seed, 0.0);
             let (alone, base) = both(&y);
             let r = alone
                 .get(Term::RateRamp)
@@ -226,7 +210,7 @@ mod tests {
         let truth = 400f64.to_radians() / 3600.0 / 3600.0;
         let (mut alone_covers, mut widened_covers) = (0, 0);
         for seed in 0..8 {
-            let y = record(12_000_000 + seed, 400.0);
+            let y = series(12_000_000 + seed, 400.0);
             let (alone, base) = both(&y);
             let test = base.ramp.expect("tested");
             assert!(test.determined(), "seed {seed}: {test:?}");
