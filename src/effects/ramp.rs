@@ -24,7 +24,7 @@
 
 use serde::Serialize;
 
-use crate::model::{FitOptions, NoiseFit, Term};
+use crate::model::{Coefficients, FitOptions, NoiseFit, Term};
 
 use super::regression::{IncrementModel, MAX_INCREMENTS};
 use super::slow::DETECTION_P;
@@ -68,17 +68,20 @@ pub fn test_ramp(y: &[f64], fs: f64, model: &NoiseFit) -> Option<RampTest> {
 /// the criterion left out at their upper limits. A term too weak to be admitted is not absent,
 /// and slow noise missing from the covariance would make a slow regressor (or a ramp) look
 /// significant: the regressions err on the side of too much noise.
-pub fn ramp_free_density(fit: &NoiseFit, fs: f64) -> impl Fn(f64) -> f64 + '_ {
-    move |f| {
-        let kept = fit.estimates.iter().map(|e| (e.term, e.value));
-        let left_out = fit.upper_limits.iter().map(|u| (u.term, u.upper));
-        let base: f64 = kept
-            .chain(left_out)
-            .filter(|(term, v)| *term != Term::RateRamp && v.is_finite())
-            .map(|(term, v)| v * v * term.psd_sampled_unit(f, fs))
-            .sum();
-        2.0 * base
+pub fn ramp_free_density(fit: &NoiseFit, fs: f64) -> impl Fn(f64) -> f64 {
+    let c = ramp_free_coefficients(fit);
+    move |f| 2.0 * c.psd_sampled(f, fs)
+}
+
+/// `fit`'s coefficients as [`ramp_free_density`] takes them: the kept terms and the left-out ones
+/// at their upper limits, R at 0.
+pub fn ramp_free_coefficients(fit: &NoiseFit) -> Coefficients {
+    let mut c = fit.coefficients();
+    for u in fit.upper_limits.iter().filter(|u| u.upper.is_finite()) {
+        c.set(u.term, u.upper);
     }
+    c.set(Term::RateRamp, 0.0);
+    c
 }
 
 /// `opts` without the rate ramp.

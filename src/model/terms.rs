@@ -221,6 +221,15 @@ impl Coefficients {
             .map(|&t| self.get(t).powi(2) * t.psd_unit(f, tau0))
             .sum()
     }
+
+    /// Model two-sided PSD of the *sampled* signal at 0 < f < fs/2 ([`Term::psd_sampled_unit`]):
+    /// what a Welch spectrum of samples at `rate_hz` estimates.
+    pub fn psd_sampled(&self, f: f64, rate_hz: f64) -> f64 {
+        Term::ALL
+            .iter()
+            .map(|&t| self.get(t).powi(2) * t.psd_sampled_unit(f, rate_hz))
+            .sum()
+    }
 }
 
 /// First-order Gauss–Markov process: stationary variance σ² (SI rate units²) and correlation time

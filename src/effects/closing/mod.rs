@@ -34,8 +34,8 @@ use serde::Serialize;
 
 use crate::avar::{compute, Confidence, Deviations, Statistic, TauGrid};
 use crate::model::{
-    average_with_rival, bic_weight, fit_avar_with, fit_psd_with, Bandwidth, EffectEstimate,
-    EffectShape, FitOptions, FitWarning, NoiseFit, Term, SELECTION_WINDOW,
+    average_with_rival, bic_weight, fit_avar_with, fit_psd_with, Bandwidth, Coefficients,
+    EffectEstimate, EffectShape, FitOptions, FitWarning, NoiseFit, Term, SELECTION_WINDOW,
 };
 use crate::psd::{
     log_bin, log_bin_resolving, neighbour_redundancy, welch, BinnedPsd, Psd, WelchConfig,
@@ -46,7 +46,7 @@ use super::excursion::{
     excursion_under_model, remove_excursion, BoxSearch, Excursion, LevelChange,
 };
 use super::lines::{find_excess, Excess};
-use super::ramp::{ramp_free_density, test_ramp, widen_ramp, without_ramp};
+use super::ramp::{ramp_free_coefficients, test_ramp, widen_ramp, without_ramp};
 use super::regression::{IncrementModel, MAX_INCREMENTS};
 use super::residuals::{diagnose, Diagnostics};
 use super::shapes::{GaussMarkov1, Resonance};
@@ -395,39 +395,35 @@ fn score(fit: &NoiseFit) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// One-sided density at f of the coefficients `terms` plus the fit's stochastic effect.
+/// One-sided density at f of the coefficients `c` plus the fit's stochastic effect.
 fn density_of(
-    terms: impl Iterator<Item = (Term, f64)>,
+    c: &Coefficients,
     fit: &NoiseFit,
     stochastic: Option<&Stochastic>,
     f: f64,
     fs: f64,
 ) -> f64 {
-    let base: f64 = terms
-        .map(|(term, v)| v * v * term.psd_sampled_unit(f, fs))
-        .sum();
     let effect = match (stochastic, fit.effect) {
         (Some(s), Some(e)) => e.value * e.value * s.shape().psd_unit(f, fs),
         _ => 0.0,
     };
-    2.0 * (base + effect)
+    2.0 * (c.psd_sampled(f, fs) + effect)
 }
 
 /// The spectrum fit's model as a one-sided density at f.
 fn model_one_sided(fit: &NoiseFit, stochastic: Option<&Stochastic>, f: f64, fs: f64) -> f64 {
-    let kept = fit.estimates.iter().map(|e| (e.term, e.value));
-    density_of(kept, fit, stochastic, f, fs)
+    density_of(&fit.coefficients(), fit, stochastic, f, fs)
 }
 
 /// The noise density (one-sided) of a fit's model for the regressions of slow effects
-/// ([`ramp_free_density`]) with the fit's stochastic effect.
+/// ([`super::ramp::ramp_free_density`]'s coefficients) with the fit's stochastic effect.
 fn noise_density<'a>(
     fit: &'a NoiseFit,
     stochastic: Option<&'a Stochastic>,
     fs: f64,
 ) -> impl Fn(f64) -> f64 + 'a {
-    let base = ramp_free_density(fit, fs);
-    move |f| base(f) + density_of(std::iter::empty(), fit, stochastic, f, fs)
+    let c = ramp_free_coefficients(fit);
+    move |f| density_of(&c, fit, stochastic, f, fs)
 }
 
 /// A candidate for this round: its ΔBIC, what it would add, and the evidence.
