@@ -4,10 +4,12 @@
 //!
 //! `cargo run --release --example ramp_check -- [SEEDS] [SECONDS] [R in °/h/h ...]`; with
 //! `RAMP_TEST=1` the fits are the base fits' flow with the time series' test of the ramp
-//! (`effects::band::fit_in_band`, `effects::ramp`), without it the Allan fit alone. Results:
-//! `validation/ramp.md`.
+//! (`effects::band::fit_in_band`, `effects::ramp`), with `RAMP_TEST=loop` the final Allan fit
+//! of the residual loop (`effects::close_loop`, which asks the corrected series again at its end),
+//! without either the Allan fit alone. Results: `validation/ramp.md`.
 use imunoise::avar::{compute, Confidence, Statistic, TauGrid};
 use imunoise::effects::band::{fit_in_band, Series};
+use imunoise::effects::{close_loop, LoopConfig};
 use imunoise::model::{fit_avar, CoefUnit, Coefficients, FitOptions, NoiseFit, Term};
 use imunoise::psd::{log_bin, welch, WelchConfig};
 use imunoise::sim::{simulate, SimSpec};
@@ -16,8 +18,18 @@ use rayon::prelude::*;
 const FS: f64 = 100.0;
 const FIRST_SEED: u64 = 11_000_000;
 
-/// The Allan fit alone (`series` false) or the base fits' flow with the ramp's test.
-fn fit(seed: u64, seconds: f64, truth: &Coefficients, series: bool) -> NoiseFit {
+/// Which fit is judged.
+#[derive(Clone, Copy, PartialEq)]
+enum Mode {
+    /// The Allan fit alone.
+    Alone,
+    /// The base fits' flow with the ramp's test.
+    Base,
+    /// The residual loop's final Allan fit.
+    Loop,
+}
+
+fn fit(seed: u64, seconds: f64, truth: &Coefficients, mode: Mode) -> NoiseFit {
     let spec = serde_json::json!({ "rate_hz": FS, "duration_s": seconds, "seed": seed,
         "channels": [{ "name": "g", "sensor": "gyro", "noise": truth }] });
     let spec: SimSpec = serde_json::from_value(spec).expect("a valid spec");
@@ -34,8 +46,13 @@ fn fit(seed: u64, seconds: f64, truth: &Coefficients, series: bool) -> NoiseFit 
         Confidence::OneSigma,
     )
     .expect("OADEV");
-    if !series {
-        return fit_avar(&d, &FitOptions::default()).expect("Allan fit");
+    match mode {
+        Mode::Alone => return fit_avar(&d, &FitOptions::default()).expect("Allan fit"),
+        Mode::Loop => {
+            let out = close_loop(&y, FS, &[], &LoopConfig::with_segment(4096), None);
+            return out.and_then(|o| o.allan).expect("the loop's Allan fit");
+        }
+        Mode::Base => {}
     }
     let psd = welch(&y, FS, &WelchConfig::new(4096)).expect("Welch");
     let binned = log_bin(&psd, 20);
@@ -86,7 +103,11 @@ fn main() {
     if ramps.is_empty() {
         ramps = vec![0.0];
     }
-    let series = std::env::var("RAMP_TEST").is_ok_and(|v| v == "1");
+    let mode = match std::env::var("RAMP_TEST").as_deref() {
+        Ok("1") => Mode::Base,
+        Ok("loop") => Mode::Loop,
+        _ => Mode::Alone,
+    };
     for r in ramps {
         let truth = Coefficients {
             n: CoefUnit::DegPerSqrtH.to_si(0.15),
@@ -98,7 +119,7 @@ fn main() {
         let out: Vec<(bool, bool, f64, bool, f64)> = (0..seeds)
             .into_par_iter()
             .map(|s| {
-                let f = fit(FIRST_SEED + s, seconds, &truth, series);
+                let f = fit(FIRST_SEED + s, seconds, &truth, mode);
                 let e = f.get(Term::RateRamp);
                 let kept = e.is_some();
                 if kept && std::env::var("RAMP_SEEDS").is_ok() {

@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use crate::avar::{Deviations, Statistic};
 use crate::effects::band::{fit_in_band, BandFits, Series};
-use crate::effects::ramp::{widen_ramp, RampTest};
+use crate::effects::ramp::{widen_ramp, RampDecision};
 use crate::effects::{close_loop_from_base, AuxSeries, LoopConfig, LoopReport};
 use crate::estimate::{ChannelDeviations, ChannelPsd};
 use crate::model::{
@@ -42,6 +42,9 @@ pub struct ChannelAnalysis {
     /// The residual loop: effects added to the base model, step by step. The fits above are the
     /// final ones (base terms fitted together with the effects, on the corrected series).
     pub residual_loop: Option<LoopReport>,
+    /// The time series' test of a rate ramp the base fits kept, and what it decided (`None`: no
+    /// base fit kept one). The loop's own, at its end, is in `residual_loop`.
+    pub ramp_test: Option<RampDecision>,
 }
 
 fn outcome<S: serde::Serializer>(r: &Result<NoiseFit, FitError>, s: S) -> Result<S::Ok, S::Error> {
@@ -164,14 +167,15 @@ fn fit_and_close(
     if let Some(outcome) =
         close_loop_from_base(input.samples, input.rate_hz, aux, &cfg, initial, base)
     {
-        if !outcome.report.steps.is_empty() || outcome.report.rival.is_some() {
+        let report = &outcome.report;
+        if !report.steps.is_empty() || report.rival.is_some() || report.ramp.is_some() {
             for (fit, out) in [
                 (&mut a.allan, outcome.allan),
                 (&mut a.spectrum, outcome.spectrum),
             ] {
                 if let Some(mut f) = out {
                     // The loop's refits keep a determined ramp's Fisher interval only.
-                    if let Some(test) = &ramp {
+                    if let Some(test) = ramp.as_ref().and_then(RampDecision::widening) {
                         widen_ramp(&mut f, test);
                     }
                     *fit = Ok(f);
@@ -196,7 +200,7 @@ fn fit_and_close(
 fn fit_channel(
     input: &ChannelInput<'_>,
     opts: &FitOptions,
-) -> (ChannelAnalysis, FitOptions, Option<RampTest>) {
+) -> (ChannelAnalysis, FitOptions, Option<RampDecision>) {
     let (psd, dev) = (input.psd, oadev(input.deviations));
     let series = Series {
         samples: input.samples,
@@ -218,6 +222,7 @@ fn fit_channel(
         allan,
         spectrum,
         residual_loop: None,
+        ramp_test: ramp,
     };
     (analysis, options, ramp)
 }

@@ -27,7 +27,7 @@ use crate::model::{
 use crate::psd::{BinnedPsd, Psd};
 
 use super::angle_grid::attribute_edge;
-use super::ramp::{test_ramp, widen_ramp, without_ramp, RampTest};
+use super::ramp::{test_ramp, widen_ramp, without_ramp, RampAction, RampDecision, TestedSeries};
 
 /// What the fits know of the series behind the estimates.
 #[derive(Debug, Clone, Copy, Default)]
@@ -52,8 +52,8 @@ pub struct BandFits {
     /// The IEEE model fitted to the log-binned spectrum.
     pub spectrum: Result<NoiseFit, FitError>,
     /// The series' test of the rate ramp a fit kept (`None`: no fit kept one, or too few
-    /// samples); where it is not [`RampTest::determined`], the fits and options are without R.
-    pub ramp: Option<RampTest>,
+    /// samples); where it dropped R, the fits and options are without it.
+    pub ramp: Option<RampDecision>,
 }
 
 /// The base fits of one channel's estimates inside its band (see the module docs): `dev` its
@@ -95,20 +95,30 @@ pub fn fit_in_band(
         let flat = without_ramp(&options);
         let (allan_flat, spectrum_flat) = fits(dev, psd, binned, &flat);
         let model = allan_flat.as_ref().or(spectrum_flat.as_ref()).ok();
-        ramp = model.and_then(|m| test_ramp(series.samples, psd.rate_hz, m));
-        match &ramp {
-            Some(test) if test.determined() => {
+        let decided = model.and_then(|m| test_ramp(series.samples, psd.rate_hz, m));
+        ramp = decided.map(|test| RampDecision {
+            series: TestedSeries::Recorded,
+            action: if test.determined() {
+                RampAction::Kept
+            } else {
+                RampAction::Dropped
+            },
+            test,
+            estimate: None,
+        });
+        match &mut ramp {
+            Some(d) if d.action == RampAction::Kept => {
                 // Determined under the model without R, whose K took up the ramp's rise (which
                 // keeps the test's level); its size is measured under the model with R, whose
                 // left-out K is the random walk's own (the first's error was 2.5× the scatter).
                 let with_ramp = allan.as_ref().or(spectrum.as_ref()).ok();
                 let sized = with_ramp
                     .and_then(|m| test_ramp(series.samples, psd.rate_hz, m))
-                    .unwrap_or(*test);
+                    .unwrap_or(d.test);
                 for f in [&mut allan, &mut spectrum].into_iter().flatten() {
                     widen_ramp(f, &sized);
                 }
-                ramp = Some(sized);
+                d.estimate = Some(sized);
             }
             Some(_) => {
                 (options, allan, spectrum) = (flat, allan_flat, spectrum_flat);
@@ -193,8 +203,9 @@ mod tests {
                 .get(Term::RateRamp)
                 .expect("the Allan fit alone keeps R");
             assert!(r.lo > 0.0, "seed {seed}: {r:?}");
-            let test = base.ramp.expect("tested");
-            assert!(!test.determined(), "seed {seed}: {test:?}");
+            let d = base.ramp.expect("tested");
+            assert!(!d.test.determined(), "seed {seed}: {d:?}");
+            assert_eq!(d.action, RampAction::Dropped);
             let allan = base.allan.unwrap();
             assert!(allan.get(Term::RateRamp).is_none(), "seed {seed}");
             assert!(!base.options.terms.contains(&Term::RateRamp));
@@ -212,8 +223,10 @@ mod tests {
         for seed in 0..8 {
             let y = series(12_000_000 + seed, 400.0);
             let (alone, base) = both(&y);
-            let test = base.ramp.expect("tested");
-            assert!(test.determined(), "seed {seed}: {test:?}");
+            let d = base.ramp.expect("tested");
+            assert!(d.test.determined(), "seed {seed}: {d:?}");
+            assert_eq!(d.action, RampAction::Kept);
+            let test = d.estimate.expect("sized under the model with R");
             let a = alone.get(Term::RateRamp).expect("kept alone");
             let w = base
                 .allan

@@ -148,7 +148,7 @@ pub fn fit_avar_with(
         e[ramp] = e[walk];
     }
     screen.cross.clear();
-    let forced = if effect.is_some() { 1 << EFFECT } else { 0 };
+    let forced = if effect.is_some() { 1 << EFFECT } else { 0 } | opts.required_mask();
     select_and_fit(
         &problem,
         &screen,

@@ -40,6 +40,10 @@ pub struct FitOptions {
     /// [`select`](super::select)). Off only for the many fits of a profile over an effect's shape
     /// parameters, which use scores and not the estimates.
     pub selection_uncertainty: bool,
+    /// Allowed terms every candidate subset must contain: the rate ramp where the time series
+    /// determines one that the Allan curve alone cannot tell from a random walk (the residual
+    /// loop's last check, [`crate::effects::ramp`]). Empty: the criterion chooses every term.
+    pub required: Vec<Term>,
 }
 
 impl Default for FitOptions {
@@ -55,6 +59,7 @@ impl Default for FitOptions {
             detect_bandwidth: true,
             lowpass: None,
             selection_uncertainty: true,
+            required: Vec::new(),
         }
     }
 }
@@ -63,5 +68,10 @@ impl FitOptions {
     /// Bit mask of the allowed terms.
     pub(crate) fn mask(&self) -> u8 {
         self.terms.iter().fold(0, |m, t| m | (1 << t.index()))
+    }
+
+    /// Bit mask of the required terms that are allowed.
+    pub(crate) fn required_mask(&self) -> u8 {
+        self.required.iter().fold(0, |m, t| m | (1 << t.index())) & self.mask()
     }
 }

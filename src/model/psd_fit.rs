@@ -86,7 +86,8 @@ pub fn fit_psd_with(
     effect: Option<&dyn EffectShape>,
 ) -> Result<NoiseFit, FitError> {
     let (problem, x, _) = spectrum_problem(psd, binned, opts, effect)?;
-    let forced = if effect.is_some() { 1 << EFFECT } else { 0 };
+    let forced = if effect.is_some() { 1 << EFFECT } else { 0 }
+        | (opts.required_mask() & spectrum_terms(opts));
     select_and_fit(
         &problem,
         &problem,

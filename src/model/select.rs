@@ -26,6 +26,9 @@
 
 use super::average::mixture_quantile;
 use super::fit::{members, Mask, Problem, BASE, EFFECT, TERMS};
+
+/// The base terms' bits.
+const BASE_MASK: Mask = (1 << BASE) - 1;
 use super::interval::coefficient_interval;
 use super::result::Domain;
 use super::{
@@ -45,8 +48,11 @@ pub(crate) fn rank_subsets(
 ) -> Vec<(Candidate, Mask)> {
     let n = problem.len();
     let first = if forced == 0 { 1 } else { 0 };
-    let masks: Vec<Mask> = (first..=allowed)
-        .filter(|&m| m & allowed == m)
+    // Subsets of the terms not forced, each with the forced ones (a required term that is also
+    // allowed would otherwise be counted twice).
+    let free = allowed & !forced;
+    let masks: Vec<Mask> = (first..=free)
+        .filter(|&m| m & free == m)
         .map(|m| m | forced)
         .collect();
     // Subsets are independent: fitted in parallel, collected in mask order (so ties sort the same
@@ -61,9 +67,11 @@ pub(crate) fn rank_subsets(
             // caller's criterion judges. Counted improper, it left only subsets in which the
             // effect had to stand in for a base term: a Gauss–Markov column forced into the
             // spectrum of a white accelerometer took the place of N (χ²/dof 400, ΔBIC +18 000).
+            // A required base term ([`FitOptions::required`]) at zero is not seen either: such
+            // a subset is improper like any other.
             let proper = idx
                 .iter()
-                .all(|&j| fit.c[j] > 0.0 || (forced >> j) & 1 == 1);
+                .all(|&j| fit.c[j] > 0.0 || (j >= BASE && (forced >> j) & 1 == 1));
             let (_, chi2, neg2ll) = problem.likelihood(&fit);
             let candidate = Candidate {
                 terms: idx
@@ -110,7 +118,7 @@ pub(crate) fn select_and_fit(
         .iter()
         .position(|(c, _)| eligible(c))
         .ok_or(FitError::NoSignal)?;
-    let mut mask = prefer_random_walk(fits[best].1, allowed, &fits);
+    let mut mask = prefer_random_walk(fits[best].1, allowed, forced, &fits);
     // Refit on the problem itself; should that clamp a term (a screening/final difference near
     // the criterion's threshold), the term goes.
     let mut fit = problem.irls(mask);
@@ -122,7 +130,7 @@ pub(crate) fn select_and_fit(
         if zeroed == 0 || zeroed == mask {
             break;
         }
-        if zeroed & forced != 0 {
+        if zeroed & forced & !BASE_MASK != 0 {
             // The effect itself came out zero: the caller's criterion will reject it.
             break;
         }
@@ -388,9 +396,11 @@ fn averaged_interval(
 /// records (N, B, K, no ramp): the Allan fit chose a ramp in 12, 9 of them with K's swap within 6
 /// BIC. The rivals with R still enter the averaged estimates and their spread, and K carries the
 /// ambiguity flag.
-fn prefer_random_walk(mask: Mask, allowed: Mask, fits: &[(Candidate, Mask)]) -> Mask {
+fn prefer_random_walk(mask: Mask, allowed: Mask, forced: Mask, fits: &[(Candidate, Mask)]) -> Mask {
     let (k, r) = (Term::RateRandomWalk.index(), Term::RateRamp.index());
-    if mask & (1 << r) != 0 && ambiguous_with(r, mask, allowed, fits) == Some(Term::RateRandomWalk)
+    if mask & (1 << r) != 0
+        && forced & (1 << r) == 0
+        && ambiguous_with(r, mask, allowed, fits) == Some(Term::RateRandomWalk)
     {
         (mask & !(1 << r)) | (1 << k)
     } else {
@@ -559,8 +569,8 @@ mod tests {
         assert!((lo - alone.0).abs() < 1e-9 && (hi - alone.1).abs() < 1e-9);
     }
 
-    /// A ramp chosen over K by less than [`AMBIGUITY_BIC`] gives way to K; by more, or with K
-    /// already in the model or not allowed, it stays.
+    /// A ramp chosen over K by less than [`AMBIGUITY_BIC`] gives way to K; by more, with K
+    /// already in the model or not allowed, or required ([`FitOptions::required`]), it stays.
     #[test]
     fn a_ramp_that_k_fits_as_well_gives_way_to_k() {
         let (n, b, k, r) = (1 << 1, 1 << 2, 1 << 3, 1 << 4);
@@ -572,16 +582,20 @@ mod tests {
         };
         let all = n | b | k | r;
         let close = vec![(cand(0.0), n | b | r), (cand(5.0), n | b | k)];
-        assert_eq!(prefer_random_walk(n | b | r, all, &close), n | b | k);
-        assert_eq!(prefer_random_walk(n | b | r, n | b | r, &close), n | b | r);
+        assert_eq!(prefer_random_walk(n | b | r, all, 0, &close), n | b | k);
+        assert_eq!(
+            prefer_random_walk(n | b | r, n | b | r, 0, &close),
+            n | b | r
+        );
         let far = vec![(cand(0.0), n | b | r), (cand(7.0), n | b | k)];
-        assert_eq!(prefer_random_walk(n | b | r, all, &far), n | b | r);
+        assert_eq!(prefer_random_walk(n | b | r, all, 0, &far), n | b | r);
         let both = vec![(cand(0.0), n | k | r), (cand(1.0), n | k)];
-        assert_eq!(prefer_random_walk(n | k | r, all, &both), n | k | r);
+        assert_eq!(prefer_random_walk(n | k | r, all, 0, &both), n | k | r);
         // An improper swap (its fit clamped a term) is no alternative.
         let mut improper = close.clone();
         improper[1].0.proper = false;
-        assert_eq!(prefer_random_walk(n | b | r, all, &improper), n | b | r);
+        assert_eq!(prefer_random_walk(n | b | r, all, 0, &improper), n | b | r);
+        assert_eq!(prefer_random_walk(n | b | r, all, r, &close), n | b | r);
     }
 
     #[test]

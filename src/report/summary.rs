@@ -6,6 +6,7 @@
 use std::fmt::Write;
 
 use crate::analysis::ChannelAnalysis;
+use crate::effects::ramp::{RampAction, RampDecision, TestedSeries};
 use crate::effects::slow::DriftShape;
 use crate::effects::{Effect, ErrorFigures};
 use crate::io::Recording;
@@ -604,11 +605,39 @@ fn errors(f: &ErrorFigures) -> String {
     format!("AV {}; PSD {}", d(&f.allan), d(&f.spectrum))
 }
 
+/// What the series' test of a rate ramp decided ([`crate::effects::ramp`]), as a sentence.
+fn ramp_sentence(d: &RampDecision, sensor: Sensor) -> String {
+    let [_, u, _] = units_of(sensor, Term::RateRamp);
+    let series = match d.series {
+        TestedSeries::Recorded => "the recorded series",
+        TestedSeries::Corrected => "the corrected series",
+    };
+    let action = match d.action {
+        RampAction::Kept => "kept, its interval widened to the series'",
+        RampAction::Dropped => "dropped, the fits made again without it",
+        RampAction::Added => "added, required in the Allan fit (K alone had taken its place)",
+    };
+    let t = &d.test;
+    format!(
+        " Rate ramp {action}: in {series} R = {} ± {} {} (t = {:.1}, p = {:.1e}).",
+        sig4(u.from_si(t.ramp)),
+        sig4(u.from_si(t.se)),
+        u.pretty(),
+        t.t,
+        t.p
+    )
+}
+
 fn loop_section(out: &mut String, recording: &Recording, analysis: &[ChannelAnalysis]) {
     let _ = writeln!(out, "\n### Residual loop: effects the IEEE model lacks\n");
     for a in analysis {
         let Some(l) = &a.residual_loop else { continue };
         let units = EffectUnits::of(recording, &a.channel);
+        let ramp: String = [a.ramp_test.as_ref(), l.ramp.as_ref()]
+            .into_iter()
+            .flatten()
+            .map(|d| ramp_sentence(d, a.sensor))
+            .collect();
         // A rival the coefficients were averaged with (see `effects::Rival`), at any weight.
         let rival = l.rival.as_ref().map_or(String::new(), |r| {
             format!(
@@ -621,13 +650,13 @@ fn loop_section(out: &mut String, recording: &Recording, analysis: &[ChannelAnal
         if l.steps.is_empty() {
             let _ = writeln!(
                 out,
-                "- **{}**: nothing added ({}).{rival}",
+                "- **{}**: nothing added ({}).{rival}{ramp}",
                 a.channel,
                 errors(&l.final_figures)
             );
             continue;
         }
-        let _ = writeln!(out, "- **{}**:{rival}", a.channel);
+        let _ = writeln!(out, "- **{}**:{rival}{ramp}", a.channel);
         for (i, s) in l.steps.iter().enumerate() {
             let _ = writeln!(
                 out,

@@ -46,7 +46,10 @@ use super::excursion::{
     excursion_under_model, remove_excursion, BoxSearch, Excursion, LevelChange,
 };
 use super::lines::{find_excess, Excess};
-use super::ramp::{ramp_free_coefficients, test_ramp, widen_ramp, without_ramp};
+use super::ramp::{
+    ramp_free_coefficients, ramp_null_coefficients, test_ramp_under, widen_ramp, without_ramp,
+    RampAction, RampDecision, RampTest, TestedSeries,
+};
 use super::regression::{IncrementModel, MAX_INCREMENTS};
 use super::residuals::{diagnose, Diagnostics};
 use super::shapes::{GaussMarkov1, Resonance};
@@ -252,6 +255,10 @@ pub struct LoopReport {
     /// [`SELECTION_WINDOW`] of the final model: the final coefficients average both models (see
     /// [`crate::model::average_with_rival`]).
     pub rival: Option<Rival>,
+    /// The series' test of the rate ramp at the loop's end, where it changed the model: R
+    /// dropped (the loop's corrections took the slope out) or added (the Allan fit had put K in
+    /// its place).
+    pub ramp: Option<RampDecision>,
     /// The fits of the base model before any effect (those after are the channel's fits).
     #[serde(skip)]
     pub base_allan: Option<NoiseFit>,
@@ -573,6 +580,7 @@ fn run_loop(
     let mut steps: Vec<LoopStep> = Vec::new();
     let mut rejected = Vec::new();
     let mut rival = None;
+    let mut end_ramp = None;
     while steps.len() < MAX_STEPS {
         let mut unexplained = Vec::new();
         let candidates = propose(&state, fs, aux, cfg, p, &mut unexplained);
@@ -642,12 +650,18 @@ fn run_loop(
     // A ramp the base fits kept because the series showed one may have been a step's, a
     // warm-up's or a coupling's slope that the loop took out: asked again of the corrected series
     // (as in `band`), and without R from here on (the rival's refit included) if it is gone.
-    let flat_cfg;
-    let cfg = match ramp_gone(&state, fs, cfg) {
-        Some((flat, allan, spectrum)) => {
+    // And a ramp the fits left out (the Allan curve could not tell it from a random walk K) is
+    // required where the corrected series determines it: only now, once the loop had its chance
+    // to explain a slope as a warm-up, a coupling or a step (asked of the recorded series before
+    // the loop, the sample's gyro_z got a ramp that way).
+    let decided = ramp_gone(&state, fs, cfg).or_else(|| ramp_found(&state, fs, cfg));
+    let end_cfg;
+    let cfg = match decided {
+        Some((decision, next, allan, spectrum)) => {
             (state.allan, state.spectrum) = (allan, spectrum);
-            flat_cfg = flat;
-            &flat_cfg
+            end_cfg = next;
+            end_ramp = Some(decision);
+            &end_cfg
         }
         None => cfg,
     };
@@ -685,7 +699,10 @@ fn run_loop(
     });
     // The refits keep a determined ramp's Fisher interval only (see `ramp`; a caller that
     // handed its base fits in widens them itself).
-    if let Some(test) = &ramp {
+    let widening = [&ramp, &end_ramp]
+        .into_iter()
+        .filter_map(|d| d.as_ref().and_then(RampDecision::widening));
+    for test in widening {
         for f in [&mut state.allan, &mut state.spectrum]
             .into_iter()
             .flatten()
@@ -701,6 +718,7 @@ fn run_loop(
         rejected,
         stationarity: split_record(&state.y, fs, 4, 0.99),
         rival,
+        ramp: end_ramp,
         base_allan,
         base_spectrum,
         corrected: state
@@ -714,14 +732,23 @@ fn run_loop(
     })
 }
 
+/// The loop's last word on the rate ramp: the decision, the configuration from here on, both fits.
+type RampEnd = (RampDecision, LoopConfig, Option<NoiseFit>, Option<NoiseFit>);
+
+/// The series' test of a ramp under the final model without R (`model`, with the loop's
+/// stochastic effect in its noise: a Gauss–Markov process the loop admitted is slow noise the
+/// ramp must stand out from).
+/// `c`: the model's coefficients without R ([`ramp_free_coefficients`] where a fit kept R,
+/// [`ramp_null_coefficients`] where none did).
+fn test_final(state: &State, fs: f64, model: &NoiseFit, c: Coefficients) -> Option<RampTest> {
+    let stochastic = state.stochastic.as_ref();
+    test_ramp_under(&state.y, fs, &|f| density_of(&c, model, stochastic, f, fs))
+}
+
 /// Where the loop corrected the series and a final fit still keeps a rate ramp that the corrected
 /// series does not determine ([`super::ramp`]): the configuration without R and both fits made
 /// again with it.
-fn ramp_gone(
-    state: &State,
-    fs: f64,
-    cfg: &LoopConfig,
-) -> Option<(LoopConfig, Option<NoiseFit>, Option<NoiseFit>)> {
+fn ramp_gone(state: &State, fs: f64, cfg: &LoopConfig) -> Option<RampEnd> {
     let keeps = |f: &Option<NoiseFit>| f.as_ref().is_some_and(|f| f.get(Term::RateRamp).is_some());
     if !state.changed || !(keeps(&state.allan) || keeps(&state.spectrum)) {
         return None;
@@ -733,8 +760,55 @@ fn ramp_gone(
     let test = allan
         .as_ref()
         .or(spectrum.as_ref())
-        .and_then(|m| test_ramp(&state.y, fs, m))?;
-    (!test.determined()).then_some((flat, allan, spectrum))
+        .and_then(|m| test_final(state, fs, m, ramp_free_coefficients(m)))?;
+    let decision = RampDecision {
+        series: TestedSeries::Corrected,
+        action: RampAction::Dropped,
+        test,
+        estimate: None,
+    };
+    (!test.determined()).then_some((decision, flat, allan, spectrum))
+}
+
+/// Where no final fit keeps a rate ramp, the fits may still have one (R allowed) and the final
+/// series determines it: the Allan fit made again with R required (K in its place could not be
+/// told from it on the Allan curve's few longest-τ averages, while the block means of the whole
+/// record show it at the slow effects' level). The series must show it under both models: the
+/// final one without R, its K at the upper end of its interval ([`ramp_null_coefficients`]),
+/// and the refit with R, its left-out K at its upper limit. Measured on 30-min records
+/// (`validation/ramp.md`): a ramp of 200 °/h/h (≈ 7 K·√T) kept in 39 of 60 records (27 by the
+/// base fits alone); clean records given a ramp 0 of 300 (30 min) and 1 of 200 (2 h).
+fn ramp_found(state: &State, fs: f64, cfg: &LoopConfig) -> Option<RampEnd> {
+    let keeps = |f: &Option<NoiseFit>| f.as_ref().is_some_and(|f| f.get(Term::RateRamp).is_some());
+    let allowed = cfg.fit.terms.contains(&Term::RateRamp);
+    if !allowed || keeps(&state.allan) || keeps(&state.spectrum) {
+        return None;
+    }
+    let model = state.allan.as_ref()?;
+    let test = test_final(state, fs, model, ramp_null_coefficients(model))?;
+    if !test.determined() {
+        return None;
+    }
+    let mut required = cfg.clone();
+    required.fit.required.push(Term::RateRamp);
+    let shape = state.stochastic.as_ref().map(Stochastic::shape);
+    let (allan, spectrum) = fits(&state.dev, &state.psd, &state.binned, &required, shape);
+    let with_ramp = allan.as_ref().filter(|f| f.get(Term::RateRamp).is_some())?;
+    // Sized under the model with R, as where the base fits kept it (see `band`); whose left-out
+    // K enters at its upper limit: the ramp must stand out from that noise too. Weighed against
+    // the model without R alone, 3 of 200 clean 2-h records got a ramp where the Allan fit read K
+    // at 0.30–0.56× the truth (t 4.5–6.1); under the model with R their t was 1.5–3.5.
+    let estimate = test_final(state, fs, with_ramp, ramp_free_coefficients(with_ramp))?;
+    if !estimate.determined() {
+        return None;
+    }
+    let decision = RampDecision {
+        series: TestedSeries::Corrected,
+        action: RampAction::Added,
+        test,
+        estimate: Some(estimate),
+    };
+    Some((decision, required, allan, spectrum))
 }
 
 /// The loop's report and the final fits (base terms and the stochastic effect, on the corrected
