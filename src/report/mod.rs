@@ -26,7 +26,7 @@ pub use format::sig4;
 pub use info::info_text;
 pub use kalibr::imu_yaml;
 pub use model::{analysis_json, coefficients_table, units_of};
-pub use summary::{effect_line, summary_markdown, warning_line, EffectUnits};
+pub use summary::{effect_line, ramp_sentence, summary_markdown, warning_line, EffectUnits};
 pub use table::{Column, Table};
 
 use crate::avar::Deviations;

@@ -605,8 +605,9 @@ fn errors(f: &ErrorFigures) -> String {
     format!("AV {}; PSD {}", d(&f.allan), d(&f.spectrum))
 }
 
-/// What the series' test of a rate ramp decided ([`crate::effects::ramp`]), as a sentence.
-fn ramp_sentence(d: &RampDecision, sensor: Sensor) -> String {
+/// What the series' test of a rate ramp decided ([`crate::effects::ramp`]), as a sentence (with
+/// a leading space: it follows the channel's loop line in summary.md).
+pub fn ramp_sentence(d: &RampDecision, sensor: Sensor) -> String {
     let [_, u, _] = units_of(sensor, Term::RateRamp);
     let series = match d.series {
         TestedSeries::Recorded => "the recorded series",
@@ -618,8 +619,15 @@ fn ramp_sentence(d: &RampDecision, sensor: Sensor) -> String {
         RampAction::Added => "added, required in the Allan fit (K alone had taken its place)",
     };
     let t = &d.test;
+    let sized = d.estimate.map_or(String::new(), |e| {
+        format!(
+            "; under the model with R, {} ± {}",
+            sig4(u.from_si(e.ramp)),
+            sig4(u.from_si(e.se))
+        )
+    });
     format!(
-        " Rate ramp {action}: in {series} R = {} ± {} {} (t = {:.1}, p = {:.1e}).",
+        " Rate ramp {action}: in {series} R = {} ± {} {} under the model without it (t = {:.1}, p = {:.1e}){sized}.",
         sig4(u.from_si(t.ramp)),
         sig4(u.from_si(t.se)),
         u.pretty(),
@@ -744,6 +752,42 @@ mod tests {
         let u = units(Unit::RadPerS);
         assert!(effect_line(&spikes(1), &u).starts_with("1 spike (first"));
         assert!(effect_line(&spikes(3), &u).starts_with("3 spikes (first"));
+    }
+
+    /// A ramp decision reads in °/h per hour (SI rad/s² in report.json), with the deciding test
+    /// and, where R is in the model, the estimate its interval covers.
+    #[test]
+    fn a_ramp_decision_reads_in_degrees_per_hour_squared() {
+        use crate::effects::ramp::RampTest;
+        let per_h2 = std::f64::consts::PI / 180.0 / 3600.0 / 3600.0;
+        let test = |r: f64, se: f64| RampTest {
+            ramp: r * per_h2,
+            se: se * per_h2,
+            t: r / se,
+            dof: 511.0,
+            p: 8.1e-6,
+        };
+        let d = RampDecision {
+            series: TestedSeries::Corrected,
+            action: RampAction::Added,
+            test: test(200.0, 45.0),
+            estimate: Some(test(210.0, 40.0)),
+        };
+        let line = ramp_sentence(&d, Sensor::Gyro);
+        assert!(line.starts_with(" Rate ramp added"), "{line}");
+        assert!(
+            line.contains("in the corrected series R = 200.0 ± 45.00 °/h² under the model without it (t = 4.4, p = 8.1e-6); under the model with R, 210.0 ± 40.00."),
+            "{line}"
+        );
+        let dropped = RampDecision {
+            action: RampAction::Dropped,
+            series: TestedSeries::Recorded,
+            estimate: None,
+            ..d
+        };
+        let line = ramp_sentence(&dropped, Sensor::Gyro);
+        assert!(line.contains("dropped") && line.contains("in the recorded series"));
+        assert!(!line.contains("under the model with R"), "{line}");
     }
 
     #[test]
