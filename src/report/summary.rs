@@ -626,8 +626,14 @@ pub fn ramp_sentence(d: &RampDecision, sensor: Sensor) -> String {
             sig4(u.from_si(e.se))
         )
     });
+    let name = Term::RateRamp.name(sensor == Sensor::Gyro);
+    let mut title = name.chars();
+    let title: String = title
+        .next()
+        .map(|c| c.to_uppercase().chain(title).collect())
+        .unwrap_or_default();
     format!(
-        " Rate ramp {action}: in {series} R = {} ± {} {} under the model without it (t = {:.1}, p = {:.1e}){sized}.",
+        " {title} {action}: in {series} R = {} ± {} {} under the model without it (t = {:.1}, p = {:.1e}){sized}.",
         sig4(u.from_si(t.ramp)),
         sig4(u.from_si(t.se)),
         u.pretty(),
@@ -787,6 +793,7 @@ mod tests {
         };
         let line = ramp_sentence(&dropped, Sensor::Gyro);
         assert!(line.contains("dropped") && line.contains("in the recorded series"));
+        assert!(ramp_sentence(&dropped, Sensor::Accel).starts_with(" Acceleration ramp dropped"));
         assert!(!line.contains("under the model with R"), "{line}");
     }
 
