@@ -118,8 +118,26 @@ pub fn ramp_null_coefficients(fit: &NoiseFit) -> Coefficients {
 /// The ramp of `y` (at `fs`) under the one-sided noise `density` (without a ramp): for a model
 /// with more than the IEEE terms, such as the residual loop's Gauss–Markov process.
 pub fn test_ramp_under(y: &[f64], fs: f64, density: &dyn Fn(f64) -> f64) -> Option<RampTest> {
+    test_ramp_beside(y, fs, density, None)
+}
+
+/// [`test_ramp_under`] with the increments of `beside` (a series of the same length, such as a
+/// temperature) fitted beside the ramp: the ramp that is left once a regressor rising with it had
+/// its share ([`IncrementModel::mean_increment_beside`]).
+pub fn test_ramp_beside(
+    y: &[f64],
+    fs: f64,
+    density: &dyn Fn(f64) -> f64,
+    beside: Option<&[f64]>,
+) -> Option<RampTest> {
     let (increments, u) = IncrementModel::for_series(density, fs, y, MAX_INCREMENTS)?;
-    let gls = increments.mean_increment(&u)?;
+    let gls = match beside {
+        Some(x) if x.len() == y.len() => {
+            increments.mean_increment_beside(&u, &increments.increments(x))?
+        }
+        Some(_) => return None,
+        None => increments.mean_increment(&u)?,
+    };
     let per_block = increments.block as f64 / fs;
     Some(RampTest {
         ramp: gls.beta / per_block,

@@ -255,6 +255,47 @@ impl IncrementModel {
         })
     }
 
+    /// The mean of the increments, as [`mean_increment`](Self::mean_increment), with the
+    /// increments `x` of another series fitted beside it: what of a ramp is left once a regressor
+    /// that rises with it (a temperature's warm-up) had its share. `None` where `x` is constant
+    /// or as long as the intercept itself (no separate information).
+    pub fn mean_increment_beside(&self, u: &Whitened, x: &[f64]) -> Option<Gls> {
+        let m = self.m;
+        if u.0.len() != m || x.len() != m {
+            return None;
+        }
+        let (u, w, o) = (&u.0, self.whiten(x), &self.ones);
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(p, q)| p * q).sum::<f64>();
+        let (soo, sow, sww) = (dot(o, o), dot(o, &w), dot(&w, &w));
+        let (sou, swu) = (dot(o, u), dot(&w, u));
+        let det = soo * sww - sow * sow;
+        if !det.is_finite() || det <= 1e-12 * soo * sww {
+            return None;
+        }
+        let beta = (soo * swu - sow * sou) / det;
+        let a = (sww * sou - sow * swu) / det;
+        let rss: f64 = (0..m)
+            .map(|i| (u[i] - a * o[i] - beta * w[i]).powi(2))
+            .sum();
+        let dof = (m - 2) as f64;
+        let scale = rss / dof;
+        let se = (scale * sww / det).sqrt();
+        let t = if se > 0.0 { a / se } else { 0.0 };
+        Some(Gls {
+            beta: a,
+            se,
+            t,
+            p: if se > 0.0 {
+                2.0 * t_sf(t.abs(), dof)
+            } else {
+                1.0
+            },
+            dof,
+            scale,
+            reliability: 1.0,
+        })
+    }
+
     /// [`IncrementModel::regress`] of increments already whitened by [`IncrementModel::whitened`].
     pub fn regress_whitened(&self, u: &Whitened, x: &[f64], x_noise: f64) -> Option<Gls> {
         let m = self.m;

@@ -389,3 +389,30 @@ fn a_random_walk_read_low_is_not_taken_for_a_ramp() {
         assert!(allan.get(Term::RateRamp).is_none(), "seed {seed}");
     }
 }
+
+/// The same ramp beside a temperature channel: where the temperature rises through the record
+/// (a straight 4 °C climb, as a coupling's slope would follow it) the ramp cannot be told from a
+/// coupling and is not added; where it only oscillates (±0.5 °C, 300-s period) the ramp stands
+/// out beside it and is added as without it.
+#[test]
+fn a_ramp_that_a_temperature_rise_explains_as_well_is_not_added() {
+    use imunoise::effects::ramp::RampAction;
+    let y = ramp_record(13_000_004, 200.0);
+    let n = y.len();
+    let rising: Vec<f64> = (0..n).map(|i| 20.0 + 4.0 * i as f64 / n as f64).collect();
+    let o = run(&[y.clone(), rising]);
+    assert!(o.report.ramp.is_none(), "{:?}", o.report.ramp);
+    assert!(kinds(&o).is_empty(), "{:?}", kinds(&o));
+    let allan = o.allan.as_ref().expect("final fit");
+    assert!(allan.get(Term::RateRamp).is_none());
+    let period = 300.0 * FS;
+    let oscillating: Vec<f64> = (0..n)
+        .map(|i| 20.0 + 0.5 * (std::f64::consts::TAU * i as f64 / period).sin())
+        .collect();
+    let o = run(&[y, oscillating]);
+    let d = o
+        .report
+        .ramp
+        .expect("decided beside an oscillating temperature");
+    assert_eq!(d.action, RampAction::Added);
+}
