@@ -161,22 +161,14 @@ fn fits(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::avar::{compute, Confidence, Statistic, TauGrid};
-    use crate::effects::ramp::tests::series;
+    use crate::effects::ramp::tests::{octave_oadev, series};
     use crate::psd::{log_bin, welch, WelchConfig};
 
     const FS: f64 = 100.0;
 
     /// The Allan fit alone and the base fits' flow of `y`.
     fn both(y: &[f64]) -> (NoiseFit, BandFits) {
-        let d = compute(
-            y,
-            FS,
-            &TauGrid::Octave,
-            Statistic::Oadev,
-            Confidence::OneSigma,
-        )
-        .unwrap();
+        let d = octave_oadev(y);
         let psd = welch(y, FS, &WelchConfig::new(4096)).unwrap();
         let binned = log_bin(&psd, 20);
         let opts = FitOptions::default();

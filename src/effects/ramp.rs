@@ -93,7 +93,7 @@ impl RampDecision {
 
 /// The ramp of `y` (at `fs`) under the noise of `model` without its ramp.
 pub fn test_ramp(y: &[f64], fs: f64, model: &NoiseFit) -> Option<RampTest> {
-    test_ramp_under(y, fs, &ramp_free_density(model, fs))
+    test_ramp_beside(y, fs, &ramp_free_density(model, fs), None)
 }
 
 /// The noise a ramp that no fit kept is weighed against: [`ramp_free_coefficients`] with K at
@@ -115,15 +115,11 @@ pub fn ramp_null_coefficients(fit: &NoiseFit) -> Coefficients {
     c
 }
 
-/// The ramp of `y` (at `fs`) under the one-sided noise `density` (without a ramp): for a model
-/// with more than the IEEE terms, such as the residual loop's Gauss–Markov process.
-pub fn test_ramp_under(y: &[f64], fs: f64, density: &dyn Fn(f64) -> f64) -> Option<RampTest> {
-    test_ramp_beside(y, fs, density, None)
-}
-
-/// [`test_ramp_under`] with the increments of `beside` (a series of the same length, such as a
-/// temperature) fitted beside the ramp: the ramp that is left once a regressor rising with it had
-/// its share ([`IncrementModel::mean_increment_beside`]).
+/// The ramp of `y` (at `fs`) under the one-sided noise `density` (without a ramp; for a model
+/// with more than the IEEE terms, such as the residual loop's Gauss–Markov process), with the
+/// increments of `beside` (a series of the same length, such as a temperature) fitted beside it:
+/// the ramp that is left once a regressor rising with it had its share
+/// ([`IncrementModel::mean_increment_beside`]; `None` where the two cannot be told apart).
 pub fn test_ramp_beside(
     y: &[f64],
     fs: f64,
@@ -189,7 +185,7 @@ pub fn widen_ramp(fit: &mut NoiseFit, test: &RampTest) {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::avar::{compute, Confidence, Statistic, TauGrid};
+    use crate::avar::{compute, Confidence, Deviations, Statistic, TauGrid};
     use crate::model::{fit_avar, CoefUnit, Coefficients};
     use crate::sim::{simulate, SimSpec};
 
@@ -211,16 +207,20 @@ pub(crate) mod tests {
         simulate(&spec).unwrap().into_columns().0.remove(0)
     }
 
-    fn no_ramp_fit(y: &[f64]) -> NoiseFit {
-        let d = compute(
+    /// The overlapping Allan variance of `y` at octave τ, 1σ.
+    pub(crate) fn octave_oadev(y: &[f64]) -> Deviations {
+        compute(
             y,
             FS,
             &TauGrid::Octave,
             Statistic::Oadev,
             Confidence::OneSigma,
         )
-        .unwrap();
-        fit_avar(&d, &without_ramp(&FitOptions::default())).unwrap()
+        .unwrap()
+    }
+
+    fn no_ramp_fit(y: &[f64]) -> NoiseFit {
+        fit_avar(&octave_oadev(y), &without_ramp(&FitOptions::default())).unwrap()
     }
 
     /// Under N, B and K alone the test's t is Student: over 40 records |t| stays below 3.3

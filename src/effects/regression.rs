@@ -143,6 +143,39 @@ pub struct Gls {
     pub reliability: f64,
 }
 
+impl Gls {
+    /// A coefficient and its error with the Student test of it being 0 (`dof` degrees of
+    /// freedom).
+    fn student(beta: f64, se: f64, dof: f64, scale: f64, reliability: f64) -> Gls {
+        let t = if se > 0.0 { beta / se } else { 0.0 };
+        Gls {
+            beta,
+            se,
+            t,
+            p: if se > 0.0 {
+                2.0 * t_sf(t.abs(), dof)
+            } else {
+                1.0
+            },
+            dof,
+            scale,
+            reliability,
+        }
+    }
+}
+
+/// The normal equations' solution of a fit on the intercept and one regressor (whitened):
+/// intercept `a`, slope `beta`, the cross products and the residual scale.
+struct InterceptFit {
+    a: f64,
+    beta: f64,
+    soo: f64,
+    sww: f64,
+    det: f64,
+    dof: f64,
+    scale: f64,
+}
+
 impl IncrementModel {
     /// The model for a series of `n` samples at `fs` whose noise has the one-sided density
     /// `density` (units²/Hz; without a rate ramp, which the intercept absorbs). `None` for a series
@@ -238,66 +271,54 @@ impl IncrementModel {
         let rss: f64 = u.iter().zip(o).map(|(q, p)| (q - a * p).powi(2)).sum();
         let dof = (self.m - 1) as f64;
         let scale = rss / dof;
-        let se = (scale / soo).sqrt();
-        let t = if se > 0.0 { a / se } else { 0.0 };
-        Some(Gls {
-            beta: a,
-            se,
-            t,
-            p: if se > 0.0 {
-                2.0 * t_sf(t.abs(), dof)
-            } else {
-                1.0
-            },
-            dof,
-            scale,
-            reliability: 1.0,
-        })
+        Some(Gls::student(a, (scale / soo).sqrt(), dof, scale, 1.0))
     }
 
     /// The mean of the increments, as [`mean_increment`](Self::mean_increment), with the
     /// increments `x` of another series fitted beside it: what of a ramp is left once a regressor
-    /// that rises with it (a temperature's warm-up) had its share. `None` where `x` is constant
-    /// or as long as the intercept itself (no separate information).
+    /// that rises with it (a temperature's warm-up) had its share. A regressor that does not
+    /// change (all increments 0) takes nothing: the mean alone. `None` where `x` rises in step with
+    /// the intercept (a straight line): the two cannot be told apart.
     pub fn mean_increment_beside(&self, u: &Whitened, x: &[f64]) -> Option<Gls> {
-        let m = self.m;
-        if u.0.len() != m || x.len() != m {
-            return None;
+        if x.len() == self.m && x.iter().all(|&v| v == 0.0) {
+            return self.mean_increment(u);
         }
-        let (u, w, o) = (&u.0, self.whiten(x), &self.ones);
-        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(p, q)| p * q).sum::<f64>();
-        let (soo, sow, sww) = (dot(o, o), dot(o, &w), dot(&w, &w));
-        let (sou, swu) = (dot(o, u), dot(&w, u));
-        let det = soo * sww - sow * sow;
-        if !det.is_finite() || det <= 1e-12 * soo * sww {
-            return None;
-        }
-        let beta = (soo * swu - sow * sou) / det;
-        let a = (sww * sou - sow * swu) / det;
-        let rss: f64 = (0..m)
-            .map(|i| (u[i] - a * o[i] - beta * w[i]).powi(2))
-            .sum();
-        let dof = (m - 2) as f64;
-        let scale = rss / dof;
-        let se = (scale * sww / det).sqrt();
-        let t = if se > 0.0 { a / se } else { 0.0 };
-        Some(Gls {
-            beta: a,
-            se,
-            t,
-            p: if se > 0.0 {
-                2.0 * t_sf(t.abs(), dof)
-            } else {
-                1.0
-            },
-            dof,
-            scale,
-            reliability: 1.0,
-        })
+        let f = self.with_intercept(u, x)?;
+        Some(Gls::student(
+            f.a,
+            (f.scale * f.sww / f.det).sqrt(),
+            f.dof,
+            f.scale,
+            1.0,
+        ))
     }
 
     /// [`IncrementModel::regress`] of increments already whitened by [`IncrementModel::whitened`].
     pub fn regress_whitened(&self, u: &Whitened, x: &[f64], x_noise: f64) -> Option<Gls> {
+        let f = self.with_intercept(u, x)?;
+        let se = (f.scale * f.soo / f.det).sqrt();
+        let reliability = if x_noise > 0.0 {
+            let centred = f.det / f.soo;
+            (1.0 - x_noise / self.block as f64 * self.noise_trace(&self.ones, f.soo) / centred)
+                .max(MIN_RELIABILITY)
+        } else {
+            1.0
+        };
+        // t tests the uncorrected coefficient; the reported one and its error are corrected for
+        // the regressor's noise.
+        let gls = Gls::student(f.beta, se, f.dof, f.scale, reliability);
+        Some(Gls {
+            beta: f.beta / reliability,
+            se: se / reliability,
+            ..gls
+        })
+    }
+
+    /// The GLS fit of whitened increments `u` on the intercept and the increments `x`: the
+    /// normal equations both [`regress_whitened`](Self::regress_whitened) (the slope) and
+    /// [`mean_increment_beside`](Self::mean_increment_beside) (the intercept) read from. `None`
+    /// for mismatched lengths or a regressor the intercept explains (singular equations).
+    fn with_intercept(&self, u: &Whitened, x: &[f64]) -> Option<InterceptFit> {
         let m = self.m;
         if u.0.len() != m || x.len() != m {
             return None;
@@ -316,29 +337,14 @@ impl IncrementModel {
             .map(|i| (u[i] - a * o[i] - beta * w[i]).powi(2))
             .sum();
         let dof = (m - 2) as f64;
-        let scale = rss / dof;
-        let se = (scale * soo / det).sqrt();
-        let t = if se > 0.0 { beta / se } else { 0.0 };
-        let p = if se > 0.0 {
-            2.0 * t_sf(t.abs(), dof)
-        } else {
-            1.0
-        };
-        let reliability = if x_noise > 0.0 {
-            let centred = det / soo;
-            (1.0 - x_noise / self.block as f64 * self.noise_trace(o, soo) / centred)
-                .max(MIN_RELIABILITY)
-        } else {
-            1.0
-        };
-        Some(Gls {
-            beta: beta / reliability,
-            se: se / reliability,
-            t,
-            p,
+        Some(InterceptFit {
+            a,
+            beta,
+            soo,
+            sww,
+            det,
             dof,
-            scale,
-            reliability,
+            scale: rss / dof,
         })
     }
 

@@ -26,9 +26,6 @@
 
 use super::average::mixture_quantile;
 use super::fit::{members, Mask, Problem, BASE, EFFECT, TERMS};
-
-/// The base terms' bits.
-const BASE_MASK: Mask = (1 << BASE) - 1;
 use super::interval::coefficient_interval;
 use super::result::Domain;
 use super::{
@@ -37,6 +34,9 @@ use super::{
 };
 use crate::stats::normal_quantile;
 use rayon::prelude::*;
+
+/// The base terms' bits.
+const BASE_MASK: Mask = (1 << BASE) - 1;
 
 /// Every subset of `allowed` (with `forced` in each) fitted on `problem` and scored by the
 /// criterion, best score first, with its mask.

@@ -393,7 +393,8 @@ fn a_random_walk_read_low_is_not_taken_for_a_ramp() {
 /// The same ramp beside a temperature channel: where the temperature rises through the record
 /// (a straight 4 °C climb, as a coupling's slope would follow it) the ramp cannot be told from a
 /// coupling and is not added; where it only oscillates (±0.5 °C, 300-s period) the ramp stands
-/// out beside it and is added as without it.
+/// out beside it and is added as without it, and a temperature that never changes takes nothing
+/// from it.
 #[test]
 fn a_ramp_that_a_temperature_rise_explains_as_well_is_not_added() {
     use imunoise::effects::ramp::RampAction;
@@ -409,10 +410,16 @@ fn a_ramp_that_a_temperature_rise_explains_as_well_is_not_added() {
     let oscillating: Vec<f64> = (0..n)
         .map(|i| 20.0 + 0.5 * (std::f64::consts::TAU * i as f64 / period).sin())
         .collect();
-    let o = run(&[y, oscillating]);
+    let o = run(&[y.clone(), oscillating]);
     let d = o
         .report
         .ramp
         .expect("decided beside an oscillating temperature");
+    assert_eq!(d.action, RampAction::Added);
+    let o = run(&[y, vec![21.0; n]]);
+    let d = o
+        .report
+        .ramp
+        .expect("decided beside a constant temperature");
     assert_eq!(d.action, RampAction::Added);
 }
