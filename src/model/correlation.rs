@@ -2,6 +2,8 @@
 //! samples, spectrum bands share leakage; a fit that treated them as independent would count the
 //! same evidence several times and give intervals that are too narrow.
 
+use std::sync::Arc;
+
 use super::linalg::cholesky;
 use super::terms::TERMS;
 
@@ -9,8 +11,8 @@ use super::terms::TERMS;
 #[derive(Debug, Clone)]
 pub(crate) enum Correlation {
     /// The same for every model (spectrum bands: set by the window and the segment layout), held
-    /// as its Cholesky factor.
-    Fixed(Vec<Vec<f64>>),
+    /// as its Cholesky factor, shared with every iteration's weights (not copied into each).
+    Fixed(Arc<Vec<Vec<f64>>>),
     /// One correlation matrix per term (Allan variances: the correlation depends on the noise
     /// type), mixed per point by the terms' shares.
     PerTerm(Vec<Vec<Vec<f64>>>),
@@ -42,7 +44,7 @@ impl Correlation {
 
     /// A fixed correlation matrix; `None` if it is not positive definite.
     pub fn fixed(r: Vec<Vec<f64>>) -> Option<Correlation> {
-        positive_definite_factor(r).map(Correlation::Fixed)
+        positive_definite_factor(r).map(|l| Correlation::Fixed(Arc::new(l)))
     }
 
     /// The per-term correlations mixed with weights `share[i][j]` (rows summing to 1).

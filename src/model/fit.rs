@@ -18,8 +18,10 @@
 //! S_j = diag(√w_ij), w_ij the term's share of the point's standard deviation, which is a valid
 //! correlation matrix whenever each R_j is.
 
+use std::sync::Arc;
+
 use super::correlation::{positive_definite_factor, Correlation};
-use super::linalg::{inverse_spd, solve_lower};
+use super::linalg::{inverse_spd, solve_lower, solve_lower_in_place};
 use super::nnls::nnls;
 use super::Term;
 
@@ -54,7 +56,7 @@ pub(crate) fn members(mask: Mask) -> Vec<usize> {
 pub(crate) struct Weights {
     pub nu: Vec<f64>,
     pub sd: Vec<f64>,
-    pub chol: Option<Vec<Vec<f64>>>,
+    pub chol: Option<Arc<Vec<Vec<f64>>>>,
 }
 
 /// One fitted subset.
@@ -126,12 +128,12 @@ impl Problem {
             .collect();
         let chol = match &self.corr {
             None => None,
-            Some(Correlation::Fixed(l)) => Some(l.clone()),
+            Some(Correlation::Fixed(l)) => Some(Arc::clone(l)),
             // Where nothing random is modelled there is nothing to mix by: independence.
             Some(Correlation::PerTerm(_)) if mix.iter().any(Option::is_none) => None,
             Some(Correlation::PerTerm(per_term)) => {
                 let s: Vec<[f64; TERMS]> = mix.iter().map(|s| s.unwrap_or_default()).collect();
-                positive_definite_factor(Correlation::mix(per_term, &s))
+                positive_definite_factor(Correlation::mix(per_term, &s)).map(Arc::new)
             }
         };
         Weights { nu, sd, chol }
@@ -228,30 +230,39 @@ impl Problem {
         (z, chi2, chi2 + log_det + log_terms)
     }
 
-    /// C^(−1/2)·x with C = D·R·D.
-    pub fn whiten(&self, w: &Weights, x: &[f64]) -> Vec<f64> {
-        let y: Vec<f64> = x.iter().zip(&w.sd).map(|(x, s)| x / s).collect();
-        match &w.chol {
-            Some(l) => solve_lower(l, &y),
-            None => y,
+    /// C^(−1/2)·x with C = D·R·D for every x of `xs`, in one pass over the factor.
+    fn whiten_all(&self, w: &Weights, mut xs: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
+        for x in &mut xs {
+            for (v, s) in x.iter_mut().zip(&w.sd) {
+                *v /= s;
+            }
         }
+        if let Some(l) = &w.chol {
+            solve_lower_in_place(l, &mut xs);
+        }
+        xs
+    }
+
+    /// The basis columns of the terms in `idx`, unwhitened.
+    fn raw_columns(&self, idx: &[usize]) -> Vec<Vec<f64>> {
+        idx.iter()
+            .map(|&j| self.basis.iter().map(|b| b[j]).collect())
+            .collect()
     }
 
     /// Whitened basis columns of the terms in `idx`.
     fn columns(&self, w: &Weights, idx: &[usize]) -> Vec<Vec<f64>> {
-        idx.iter()
-            .map(|&j| {
-                let col: Vec<f64> = self.basis.iter().map(|b| b[j]).collect();
-                self.whiten(w, &col)
-            })
-            .collect()
+        self.whiten_all(w, self.raw_columns(idx))
     }
 
     /// Weighted NNLS of the subset `mask` with fixed weights `w`: the squared coefficients.
     pub fn solve(&self, mask: Mask, w: &Weights) -> [f64; TERMS] {
         let idx = members(mask);
-        let cols = self.columns(w, &idx);
-        let b = self.whiten(w, &self.value);
+        // The columns and the data whitened together.
+        let mut cols = self.raw_columns(&idx);
+        cols.push(self.value.clone());
+        let mut cols = self.whiten_all(w, cols);
+        let b = cols.pop().expect("the data was pushed");
         let x = nnls(&cols, &b);
         let mut c = [0.0; TERMS];
         for (&j, &v) in idx.iter().zip(&x) {

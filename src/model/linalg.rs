@@ -81,10 +81,51 @@ pub fn cholesky(m: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
 pub fn solve_lower(l: &[Vec<f64>], b: &[f64]) -> Vec<f64> {
     let mut x = vec![0.0; b.len()];
     for i in 0..b.len() {
-        let s: f64 = (0..i).map(|k| l[i][k] * x[k]).sum();
-        x[i] = (b[i] - s) / l[i][i];
+        // Slices, so that the inner product runs without bounds checks (the same products summed
+        // in the same order as an indexed loop: the same result to the bit).
+        let row = &l[i][..=i];
+        let s: f64 = row[..i].iter().zip(&x[..i]).map(|(a, v)| a * v).sum();
+        x[i] = (b[i] - s) / row[i];
     }
     x
+}
+
+/// Solves L·x = b for lower-triangular L and every right-hand side in `rhs` at once (each
+/// overwritten by its solution). Each solution is computed with the same products summed in the
+/// same order as [`solve_lower`] (from −0.0, as `Sum` does), so to the bit the same; the sums of
+/// the different right-hand sides are independent and run interleaved, which the one-at-a-time
+/// solve's single dependent chain of additions cannot (the fits whiten several basis columns and
+/// the data with one factor: a tenth of the model stage's time before).
+pub fn solve_lower_in_place(l: &[Vec<f64>], rhs: &mut [Vec<f64>]) {
+    let mut groups = rhs.chunks_exact_mut(4);
+    for group in &mut groups {
+        solve_group::<4>(l, group);
+    }
+    for x in groups.into_remainder() {
+        solve_group::<1>(l, std::slice::from_mut(x));
+    }
+}
+
+/// [`solve_lower_in_place`] for exactly `C` right-hand sides, their running sums held in
+/// registers.
+fn solve_group<const C: usize>(l: &[Vec<f64>], cols: &mut [Vec<f64>]) {
+    let n = cols.first().map_or(0, Vec::len);
+    assert!(cols.len() == C && cols.iter().all(|x| x.len() == n));
+    for i in 0..n {
+        let row = &l[i][..=i];
+        let mut sums = [-0.0; C];
+        {
+            let done: [&[f64]; C] = std::array::from_fn(|c| &cols[c][..i]);
+            for (k, &a) in row[..i].iter().enumerate() {
+                for c in 0..C {
+                    sums[c] += a * done[c][k];
+                }
+            }
+        }
+        for (c, x) in cols.iter_mut().enumerate() {
+            x[i] = (x[i] - sums[c]) / row[i];
+        }
+    }
 }
 
 /// Inverse of a symmetric positive-definite matrix (rows), via Cholesky.
@@ -112,6 +153,37 @@ pub fn inverse_spd(m: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The interleaved solve gives each right-hand side exactly what the single solve gives.
+    #[test]
+    fn solving_many_at_once_is_solving_each_to_the_bit() {
+        let n = 37;
+        // An SPD matrix with irregular entries (a kernel of distances plus a ridge).
+        let m: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|k| {
+                        let d = (i as f64 - k as f64).abs();
+                        (-d / 5.3).exp() + if i == k { 0.1 + 0.01 * i as f64 } else { 0.0 }
+                    })
+                    .collect()
+            })
+            .collect();
+        let l = cholesky(&m).unwrap();
+        let rhs: Vec<Vec<f64>> = (0..4)
+            .map(|c| {
+                (0..n)
+                    .map(|i| ((i * 7 + c * 13) % 11) as f64 - 5.3)
+                    .collect()
+            })
+            .collect();
+        let mut many = rhs.clone();
+        solve_lower_in_place(&l, &mut many);
+        for (b, x) in rhs.iter().zip(&many) {
+            let one = solve_lower(&l, b);
+            assert!(one.iter().zip(x).all(|(a, b)| a.to_bits() == b.to_bits()));
+        }
+    }
 
     #[test]
     fn lstsq_fits_an_exact_polynomial_and_flags_dependence() {
