@@ -644,14 +644,29 @@ pub fn ramp_sentence(d: &RampDecision, sensor: Sensor) -> String {
 
 fn loop_section(out: &mut String, recording: &Recording, analysis: &[ChannelAnalysis]) {
     let _ = writeln!(out, "\n### Residual loop: effects the IEEE model lacks\n");
+    if analysis.iter().all(|a| a.residual_loop.is_none()) {
+        let _ = writeln!(
+            out,
+            "Not run (`--no-loop`, or no base fit to start from): the coefficients are the base fits'.\n"
+        );
+    }
     for a in analysis {
-        let Some(l) = &a.residual_loop else { continue };
+        let ramp = |d: Option<&RampDecision>| -> String {
+            [a.ramp_test.as_ref(), d]
+                .into_iter()
+                .flatten()
+                .map(|d| ramp_sentence(d, a.sensor))
+                .collect()
+        };
+        let Some(l) = &a.residual_loop else {
+            // The base fits' ramp decision stands without a loop too.
+            if a.ramp_test.is_some() {
+                let _ = writeln!(out, "- **{}**:{}", a.channel, ramp(None));
+            }
+            continue;
+        };
         let units = EffectUnits::of(recording, &a.channel);
-        let ramp: String = [a.ramp_test.as_ref(), l.ramp.as_ref()]
-            .into_iter()
-            .flatten()
-            .map(|d| ramp_sentence(d, a.sensor))
-            .collect();
+        let ramp = ramp(l.ramp.as_ref());
         // A rival the coefficients were averaged with (see `effects::Rival`), at any weight.
         let rival = l.rival.as_ref().map_or(String::new(), |r| {
             format!(

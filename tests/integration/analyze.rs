@@ -390,3 +390,56 @@ fn a_coarse_angle_grid_is_reported_as_such_and_no_filter_is_claimed() {
     assert!(summary.contains("no filter is claimed"), "{summary}");
     assert!(!summary.contains("sensor low-pass detected"), "{summary}");
 }
+
+/// Without the loop (`--no-loop`) the base fits' ramp decision is still said: a 400 °/h/h ramp
+/// over 30 min (14 K√T; kept by the base fits in 60 of 60 records of `validation/ramp.md`) is
+/// kept, in report.json, in summary.md (whose loop section says the loop did not run) and on
+/// stderr.
+#[test]
+fn a_ramp_kept_without_the_loop_is_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let ramp = 400f64.to_radians() / 3600.0 / 3600.0;
+    let spec = serde_json::json!({
+        "rate_hz": 100.0, "duration_s": 1800.0, "seed": 11_000_007,
+        "channels": [{ "name": "gyro_x", "sensor": "gyro",
+            "noise": { "n": 4.3633e-5, "b": 1.4544e-5, "k": 1.616e-6, "r": ramp } }]
+    });
+    std::fs::write(dir.path().join("spec.json"), spec.to_string()).unwrap();
+    run_ok(
+        &["simulate", "--spec", "spec.json", "-o", "sim.arrow"],
+        dir.path(),
+    );
+    let out = run_ok(
+        &[
+            "analyze",
+            "sim.arrow",
+            "-o",
+            "out",
+            "--backend",
+            "cpu",
+            "--no-loop",
+        ],
+        dir.path(),
+    );
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/report.json")).unwrap())
+            .unwrap();
+    crate::schema::matches_schema(&report).unwrap();
+    let channel = channel_analysis(&report, "gyro_x");
+    assert!(channel["residual_loop"].is_null(), "{channel}");
+    let decision = &channel["ramp_test"];
+    assert_eq!(decision["action"], "kept", "{decision}");
+    assert_eq!(decision["series"], "recorded", "{decision}");
+    let tested = decision["test"]["ramp"].as_f64().unwrap();
+    let se = decision["test"]["se"].as_f64().unwrap();
+    assert!((tested - ramp).abs() < 3.0 * se, "{decision} vs {ramp}");
+    let summary = std::fs::read_to_string(dir.path().join("out/summary.md")).unwrap();
+    assert!(summary.contains("Not run (`--no-loop`"), "{summary}");
+    let line = summary
+        .lines()
+        .find(|l| l.starts_with("- **gyro_x**: Rate ramp kept"))
+        .unwrap_or_else(|| panic!("{summary}"));
+    assert!(line.contains("in the recorded series R = "), "{line}");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("ramp  gyro_x:"), "{stderr}");
+}
