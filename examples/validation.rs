@@ -399,6 +399,17 @@ fn sweep_cases() -> Vec<Case> {
             "excursion",
         ));
     }
+    // The study's wandering line (100× the floor at 3e-4 rad/s) down to the floor, on an
+    // unfiltered sensor: a weak line whose power one coherent sinusoid does not hold.
+    for amplitude in [1.5e-5, 3.0e-5, 5.0e-5, 8.5e-5] {
+        let floor_ratio = 100.0 * (amplitude / 3e-4_f64).powi(2);
+        cases.push(sweep(
+            format!("wandering line 12 Hz (±0.05 Hz, ±20 %, 10 s), amplitude {amplitude:.1e} rad/s (≈ {floor_ratio:.2}× floor)"),
+            json!({ "sinusoids": [{ "amplitude": amplitude, "freq_hz": 12.0,
+                "wander": { "freq_wander_hz": 0.05, "amplitude_wander": 0.2, "wander_tc_s": 10.0 } }] }),
+            "narrowband",
+        ));
+    }
     for sigma in [0.5e-4, 1.0e-4] {
         cases.push(sweep(
             format!("resonance 8 Hz, Q 20, σ {sigma:.1e} rad/s"),
