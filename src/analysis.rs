@@ -78,6 +78,13 @@ impl ChannelAnalysis {
     pub fn spectrum_fit(&self) -> Option<&NoiseFit> {
         self.spectrum.as_ref().ok()
     }
+
+    /// Every rate-ramp decision made on the channel, in order: the base fits' test, then the
+    /// loop's last word.
+    pub fn ramp_decisions(&self) -> impl Iterator<Item = &RampDecision> {
+        let at_end = self.residual_loop.as_ref().and_then(|l| l.ramp.as_ref());
+        self.ramp_test.iter().chain(at_end)
+    }
 }
 
 /// One channel's inputs to the model stage.

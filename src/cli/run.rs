@@ -236,9 +236,7 @@ pub fn run(job: &Job) -> i32 {
                     }
                     // A rate ramp the series' test kept, dropped or added: the one change to
                     // the IEEE terms that no effect line shows.
-                    let loop_ramp = a.residual_loop.as_ref().and_then(|l| l.ramp.as_ref());
-                    let ramps = [a.ramp_test.as_ref(), loop_ramp].into_iter().flatten();
-                    for d in ramps.filter(|_| !job.output.quiet) {
+                    for d in a.ramp_decisions().filter(|_| !job.output.quiet) {
                         let text = report::ramp_sentence(d, a.sensor);
                         bar.line(&format!("ramp  {}:{text}", a.channel));
                     }

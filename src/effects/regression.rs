@@ -28,6 +28,7 @@
 //!   and β and its error are divided by λ (kept ≥ 1/2). The test of β = 0 uses the uncorrected t.
 
 use super::time::stats::t_sf;
+use crate::memo::Memo;
 
 /// Block-mean increments used at most.
 pub const MAX_INCREMENTS: usize = 512;
@@ -544,7 +545,6 @@ pub fn increment_autocovariance(
     let fb = fs / block as f64;
     let bins = 8 * m.max(1);
     let du = 0.5 / bins as f64;
-    let half_band = block as f64 / 2.0;
     let per_alias = |f: f64| {
         let den = block as f64 * (PI * f / fs).sin();
         density(f) / (den * den)
@@ -559,9 +559,23 @@ pub fn increment_autocovariance(
         m,
         table: table.values.iter().map(|v| v.to_bits()).collect(),
     };
-    if let Some(gamma) = CovarianceMemo::get(&key) {
-        return gamma;
-    }
+    COVARIANCES
+        .get_or(key, || Some(fold_and_sum(&table, fb, block, bins, du, m)))
+        .unwrap_or_default()
+}
+
+/// [`increment_autocovariance`] from its tabulated density: the aliases folded onto the block
+/// band, then the cosine sums.
+fn fold_and_sum(
+    table: &LogTable,
+    fb: f64,
+    block: usize,
+    bins: usize,
+    du: f64,
+    m: usize,
+) -> Vec<f64> {
+    use std::f64::consts::PI;
+    let half_band = block as f64 / 2.0;
     let folded: Vec<f64> = (0..bins)
         .map(|i| {
             let u = (i as f64 + 0.5) * du;
@@ -580,9 +594,7 @@ pub fn increment_autocovariance(
             fb * p * s2 * 4.0 * s2 * du
         })
         .collect();
-    let gamma = cosine_sums(&folded, du, m);
-    CovarianceMemo::put(key, &gamma);
-    gamma
+    cosine_sums(&folded, du, m)
 }
 
 /// What [`increment_autocovariance`]'s result depends on, bit for bit: the rate, the block, the
@@ -595,46 +607,16 @@ struct CovarianceKey {
     table: Vec<u64>,
 }
 
-/// The last few autocovariances computed on this thread.
+/// The autocovariances computed last, process-wide.
 ///
 /// **Why.** The loop asks for the covariance of the same model more than once on a channel (the
 /// slow effects' candidates, the drift's test under the same model, the ramp's test at the end
-/// when nothing was added in between): 6 of the 14 computations of a 6-channel 1-h record at
-/// 200 Hz repeated an earlier one, each about 60 ms. A channel's loop runs on one thread, so a
-/// small per-thread memo catches the repeats without locks; the key is exact (every input
-/// compared bit for bit), so a hit returns what the computation would.
-struct CovarianceMemo;
-
-/// Entries kept per thread: a channel's loop repeats within a few calls, and each entry holds a
-/// table of ~15 000 values (about 120 kB).
-const MEMO_ENTRIES: usize = 6;
-
-thread_local! {
-    static MEMO: std::cell::RefCell<Vec<(CovarianceKey, Vec<f64>)>> =
-        const { std::cell::RefCell::new(Vec::new()) };
-}
-
-impl CovarianceMemo {
-    fn get(key: &CovarianceKey) -> Option<Vec<f64>> {
-        MEMO.with(|memo| {
-            let mut memo = memo.borrow_mut();
-            let at = memo.iter().position(|(k, _)| k == key)?;
-            // Most recently used first.
-            let entry = memo.remove(at);
-            let gamma = entry.1.clone();
-            memo.insert(0, entry);
-            Some(gamma)
-        })
-    }
-
-    fn put(key: CovarianceKey, gamma: &[f64]) {
-        MEMO.with(|memo| {
-            let mut memo = memo.borrow_mut();
-            memo.truncate(MEMO_ENTRIES - 1);
-            memo.insert(0, (key, gamma.to_vec()));
-        })
-    }
-}
+/// when nothing was added in between, the ramp's test beside each aux channel): 6 of the 14
+/// computations of a 6-channel 1-h record at 200 Hz repeated an earlier one, each about 60 ms.
+/// The key is exact (every input compared bit for bit), so a hit returns what the computation
+/// would. A channel repeats within a few of its own calls; 32 entries (~125 kB each) leave room
+/// for the calls of 16 channels in flight at once in between.
+static COVARIANCES: Memo<CovarianceKey, Vec<f64>> = Memo::new(32);
 
 /// `Σ_i p_i·cos(2π·(i + ½)·du·k)` for k in 0..m. The cosines of each k come from a rotation
 /// recurrence (two multiply-adds per term instead of a cosine), restarted from exact values every
@@ -733,6 +715,26 @@ mod tests {
     /// The folded density agrees with the alias sum evaluated directly (the density and the
     /// block mean's gain at every alias, no table), for white noise, a random walk, flicker and a
     /// narrow resonance, at a short and a long block.
+    /// The memo returns a repeat's covariance exactly, and never another density's: two densities
+    /// that differ only above a tenth of the rate (where a low-pass acts) give different
+    /// covariances, and asking for the first again after the second gives the first's, bit for
+    /// bit (block and lag count used by no other test, so that the first call computes).
+    #[test]
+    fn the_memo_answers_only_the_same_question() {
+        let white_rw = |f: f64| 1e-6 + 1e-9 / (f * f);
+        let filtered = |f: f64| white_rw(f) / (1.0 + (f / 10.0).powi(4));
+        let (fs, block, m) = (100.0, 51, 63);
+        let first = increment_autocovariance(&white_rw, fs, block, m);
+        let other = increment_autocovariance(&filtered, fs, block, m);
+        assert_ne!(first, other);
+        let again = increment_autocovariance(&white_rw, fs, block, m);
+        let bits = |g: &[f64]| g.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&first), bits(&again));
+        // Another lag count or block is another question.
+        assert_eq!(increment_autocovariance(&white_rw, fs, block, 31).len(), 31);
+        assert_ne!(increment_autocovariance(&white_rw, fs, block + 1, m), first);
+    }
+
     #[test]
     fn folding_matches_the_direct_alias_sum() {
         use std::f64::consts::PI;

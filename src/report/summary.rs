@@ -651,22 +651,18 @@ fn loop_section(out: &mut String, recording: &Recording, analysis: &[ChannelAnal
         );
     }
     for a in analysis {
-        let ramp = |d: Option<&RampDecision>| -> String {
-            [a.ramp_test.as_ref(), d]
-                .into_iter()
-                .flatten()
-                .map(|d| ramp_sentence(d, a.sensor))
-                .collect()
-        };
+        let ramp: String = a
+            .ramp_decisions()
+            .map(|d| ramp_sentence(d, a.sensor))
+            .collect();
         let Some(l) = &a.residual_loop else {
             // The base fits' ramp decision stands without a loop too.
-            if a.ramp_test.is_some() {
-                let _ = writeln!(out, "- **{}**:{}", a.channel, ramp(None));
+            if !ramp.is_empty() {
+                let _ = writeln!(out, "- **{}**:{ramp}", a.channel);
             }
             continue;
         };
         let units = EffectUnits::of(recording, &a.channel);
-        let ramp = ramp(l.ramp.as_ref());
         // A rival the coefficients were averaged with (see `effects::Rival`), at any weight.
         let rival = l.rival.as_ref().map_or(String::new(), |r| {
             format!(
