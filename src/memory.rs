@@ -65,9 +65,18 @@ pub fn scratch(len: usize) -> Vec<f64> {
             }
             buf
         }
-        None => vec![0.0f64; len],
+        None => {
+            // A little more than asked: the callers ask for n (a series' copy) and n + 1 (its
+            // prefix sums), and a buffer made for one must serve the other.
+            let mut fresh = vec![0.0f64; len + SLACK];
+            fresh.truncate(len);
+            fresh
+        }
     }
 }
+
+/// Spare values allocated beyond a fresh scratch buffer's length (see [`scratch`]).
+const SLACK: usize = 64;
 
 /// Gives a buffer back to the pool (small ones are simply freed; a full pool keeps its largest).
 pub fn recycle(buf: Vec<f64>) {
@@ -110,6 +119,13 @@ mod tests {
         let c = scratch(n + 100);
         assert_eq!(c.len(), n + 100);
         recycle(c);
+        // A buffer made for n values serves n + 1 (a series' prefix sums after its copy).
+        let d = scratch(n + 1000);
+        let ptr = d.as_ptr();
+        recycle(d);
+        let e = scratch(n + 1001);
+        assert_eq!(e.as_ptr(), ptr);
+        recycle(e);
         recycle(vec![1.0; 10]);
         assert!(POOL.lock().unwrap().len() <= pool_size());
         release_cached_memory();

@@ -64,7 +64,8 @@ pub(super) fn refined<T>(
     iterate: Option<&dyn Fn(&T) -> f64>,
 ) -> T {
     let mut current = first;
-    let mut work = Vec::new();
+    // The corrected copy of the series: record-length, so from the pool (see [`allan_without`]).
+    let mut work = crate::memory::scratch(state.y.len());
     let passes = if iterate.is_some() { REFINE_PASSES } else { 1 };
     for pass in 0..passes {
         let correct = |v: &mut Vec<f64>| remove(v, &current);
@@ -81,6 +82,7 @@ pub(super) fn refined<T>(
             break;
         }
     }
+    crate::memory::recycle(work);
     current
 }
 
