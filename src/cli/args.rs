@@ -245,8 +245,8 @@ pub struct InputArgs {
     #[arg(long, value_name = "TOPIC")]
     pub topic: Option<String>,
 
-    /// Rows per record batch read from CSV, Parquet and MCAP files (Arrow IPC files keep their own
-    /// batches).
+    /// Rows per block read: the record batches of CSV, Parquet and MCAP files, and the blocks an
+    /// Arrow IPC file's batches (mapped, not copied) are cut into.
     #[arg(long, default_value_t = imunoise::io::DEFAULT_BATCH_ROWS, value_name = "ROWS")]
     pub batch_rows: usize,
 }

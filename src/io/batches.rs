@@ -8,6 +8,7 @@
 //! module ([`csv`]): numbers are parsed there, so that a bad cell names its column, row and line.
 
 mod csv;
+mod mapped;
 
 use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
@@ -355,11 +356,7 @@ pub fn open_batches(
     let built = guard(move || -> Result<Inner, String> {
         let map = |r: Result<RecordBatch, arrow_schema::ArrowError>| r.map_err(|e| e.to_string());
         Ok(match format {
-            Format::ArrowFile => Box::new(
-                arrow_ipc::reader::FileReader::try_new_buffered(file, Some(projection))
-                    .map_err(|e| e.to_string())?
-                    .map(map),
-            ),
+            Format::ArrowFile => mapped::batches(&file, projection)?,
             Format::ArrowStream => Box::new(
                 arrow_ipc::reader::StreamReader::try_new_buffered(file, Some(projection))
                     .map_err(|e| e.to_string())?

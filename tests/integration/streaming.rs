@@ -56,3 +56,54 @@ fn welch_memory_is_bounded_by_segment_and_block_not_by_file_length() {
         peaks[0], peaks[1]
     );
 }
+
+/// An Arrow IPC file of one record batch is handed on in blocks of `batch_rows` rows (views of the
+/// mapped batch), and gives the PSD and Allan deviation, to the bit, of the same samples written
+/// in small batches.
+#[test]
+fn one_large_arrow_batch_is_read_in_blocks_with_the_same_result() {
+    use imunoise::avar::{Confidence, TauGrid};
+    use imunoise::pipeline::{AvarWork, TauSpec};
+    let dir = tempfile::tempdir().unwrap();
+    let rows = 150_000;
+    let cols: Vec<Col> = (0..2)
+        .map(|c| f64_col(&format!("g{c}"), noise(rows, c as u64 + 20), Some("rad/s")))
+        .collect();
+    let b = batch(&cols, Some(200.0));
+    let whole = dir.path().join("whole.arrow");
+    write_ipc_file(&whole, &b, rows);
+    let small = dir.path().join("small.arrow");
+    write_ipc_file(&small, &b, 1000);
+    let work = Work {
+        welch: Some(WelchWork {
+            plan: WelchConfig::new(4096).validate().unwrap(),
+            bins_per_decade: None,
+        }),
+        avar: Some(AvarWork {
+            statistics: vec![imunoise::avar::Statistic::Oadev],
+            taus: TauSpec::Grid(TauGrid::Octave),
+            confidence: Confidence::OneSigma,
+        }),
+        fit: None,
+        residual_loop: false,
+    };
+    let mut inputs = Inputs::default();
+    inputs.open.batch_rows = 40_000;
+    let a = pipeline::run(&whole, &inputs, &work, &CpuBackend, &Silent).unwrap();
+    let s = pipeline::run(&small, &inputs, &work, &CpuBackend, &Silent).unwrap();
+    assert_eq!(a.footprint.largest_block_rows, 40_000);
+    assert_eq!(s.footprint.largest_block_rows, 1000);
+    assert_eq!(a.quality.samples_out, rows as u64);
+    for (x, y) in a.psd.as_ref().unwrap().iter().zip(s.psd.as_ref().unwrap()) {
+        assert_eq!(x.psd.value, y.psd.value);
+    }
+    for (x, y) in a
+        .avar
+        .as_ref()
+        .unwrap()
+        .iter()
+        .zip(s.avar.as_ref().unwrap())
+    {
+        assert_eq!(x.statistics[0].variance, y.statistics[0].variance);
+    }
+}
