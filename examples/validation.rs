@@ -208,6 +208,15 @@ fn study_cases() -> Vec<Case> {
             rate: None,
         },
         Case {
+            name: "resonance 18 Hz, Q 30, σ 1.5e-4 rad/s beyond the fit band (peak ≈ 5× floor), low-pass order 2 at 25 Hz".into(),
+            filtered: true,
+            extra: json!({ "lowpass": { "corner_hz": 25.0, "order": 2 },
+                "resonances": [{ "f0_hz": 18.0, "q": 30.0, "sigma": 1.5e-4 }] }),
+            expect: Some("narrowband"),
+            seconds: None,
+            rate: None,
+        },
+        Case {
             name: "Gauss–Markov σ 1e-4 rad/s, Tc 60 s (longer than a 41-s Welch segment)".into(),
             filtered: false,
             extra: json!({ "gauss_markov": [{ "sigma": 1e-4, "tc_s": 60.0 }] }),

@@ -440,7 +440,7 @@ pub fn effect_line(e: &Effect, units: &EffectUnits) -> String {
             v.interval(s.amplitude, s.amplitude_lo, s.amplitude_hi)
         ),
         Effect::Narrowband(nb) => format!(
-            "wandering line at {:.4} Hz, width {} Hz, rms {} (power {}; a coherent sinusoid explains {:.0} %)",
+            "narrow band (a wandering line or a peak) at {:.4} Hz, width {} Hz, rms {} (power {}; a coherent sinusoid explains {:.0} %)",
             nb.freq_hz,
             sig4(nb.width_hz),
             v.interval(nb.power.sqrt(), nb.power_lo.sqrt(), nb.power_hi.sqrt()),

@@ -260,3 +260,62 @@ fn wandering_lines_are_found_as_lines_with_a_width() {
         assert!(nb.coherent_share < 0.5);
     }
 }
+
+/// A resonance between the fit band's edge and the filter's corner is a peak, not the filter's
+/// transition: found and measured as a band at its frequency with its power (the resonance's
+/// variance through the filter), where it was once dismissed as the filter's edge. Nothing else
+/// is added, and the same filter without the resonance gets nothing beyond the band.
+#[test]
+fn a_resonance_beyond_the_fit_band_is_measured_not_dismissed() {
+    let filt = LowPassSpec {
+        corner_hz: 25.0,
+        order: 2,
+    };
+    let (f0, q, sigma) = (18.0, 30.0, 1.5e-4);
+    let spec = |resonances: serde_json::Value| {
+        let spec = json!({ "rate_hz": FS, "duration_s": 1800.0, "seed": 31_337,
+            "channels": [{ "name": "g", "sensor": "gyro", "noise": truth(), "lowpass": filt,
+                "resonances": resonances }] });
+        serde_json::from_value::<SimSpec>(spec).unwrap()
+    };
+    let y = simulate(&spec(json!([{ "f0_hz": f0, "q": q, "sigma": sigma }])))
+        .unwrap()
+        .channels
+        .remove(0)
+        .samples;
+    let o = close_loop(&y, FS, &[], &config(), None).expect("loop ran");
+    let band = o.report.bandwidth.as_ref().expect("roll-off found");
+    assert!(band.fit_max_freq_hz < f0, "{band:?}");
+    let kinds: Vec<&str> = o.report.steps.iter().map(|s| s.effect.kind()).collect();
+    assert_eq!(kinds, ["narrowband"], "{:?}", o.report.steps);
+    let imunoise::effects::Effect::Narrowband(nb) = &o.report.steps[0].effect else {
+        unreachable!()
+    };
+    // The resonance's variance through the filter (its band is a few tenths of a Hz wide, where
+    // the filter's gain barely changes), against the measured power with its interval.
+    let expected = sigma * sigma * lowpass_power_gain(&filt, FS, f0);
+    println!(
+        "peak at {:.3} Hz, width {:.3} Hz, power {:.3e} [{:.3e}, {:.3e}], expected {expected:.3e}",
+        nb.freq_hz, nb.width_hz, nb.power, nb.power_lo, nb.power_hi
+    );
+    assert!((nb.freq_hz - f0).abs() < 0.1, "{nb:?}");
+    assert!((nb.power / expected - 1.0).abs() < 0.2, "{nb:?}");
+    assert!(
+        nb.width_hz > 2.0 * f0 / q / 3.0 && nb.width_hz < 4.0 * f0 / q,
+        "{nb:?}"
+    );
+    // The same sensor without the resonance: nothing claimed beyond the band.
+    let clean = simulate(&spec(json!([])))
+        .unwrap()
+        .channels
+        .remove(0)
+        .samples;
+    let o = close_loop(&clean, FS, &[], &config(), None).expect("loop ran");
+    for s in &o.report.steps {
+        assert!(
+            !matches!(s.effect.kind(), "narrowband" | "resonance" | "sinusoid"),
+            "{} added to a clean filtered record",
+            s.effect.kind()
+        );
+    }
+}

@@ -979,9 +979,19 @@ fn propose(
         .count();
     let z = norm_isf((1.0 - p) / 2.0);
     for e in excess.iter().take(4) {
-        let narrow = (e.f_hi_hz - e.f_lo_hz) <= NARROW_FRACTION * e.freq_hz;
+        let width = e.f_hi_hz - e.f_lo_hz;
+        let narrow = width <= NARROW_FRACTION * e.freq_hz;
         let in_band = e.f_hi_hz <= fit_edge;
-        if !in_band && !narrow {
+        let around = (!in_band).then(|| shoulder_ratio(&state.psd, &model, e.f_lo_hz, e.f_hi_hz));
+        // Beyond the fit band a broader excess is a peak, not the filter's transition, where it
+        // is no wider than a quarter of its frequency and the spectrum on either side follows
+        // the model through the fitted filter: a Butterworth response falls monotonically, and a
+        // misjudged one leaves the whole region off the model, shoulders included.
+        let peak = !in_band
+            && !narrow
+            && width <= PEAK_FRACTION * e.freq_hz
+            && around.is_some_and(|a| a <= OUT_OF_BAND_SLACK);
+        if !in_band && !narrow && !peak {
             unexplained.push(excess_note(
                 e,
                 "broad excess beyond the fit band (the sensor filter's transition): not an effect",
@@ -991,8 +1001,7 @@ fn propose(
         // Beyond the fit band a line is measured against the spectrum's own level around it
         // where that lies above the extrapolated model (within OUT_OF_BAND_SLACK of it).
         let mut level = 1.0;
-        if !in_band {
-            let around = shoulder_ratio(&state.psd, &model, e.f_lo_hz, e.f_hi_hz);
+        if let Some(around) = around {
             level = around.max(1.0);
             if around > OUT_OF_BAND_SLACK {
                 unexplained.push(excess_note(
@@ -1024,17 +1033,27 @@ fn propose(
             });
             continue;
         }
-        if narrow {
+        if narrow || peak {
             if let Some(mut nb) =
                 measure_narrowband(&state.psd, &local, e.f_lo_hz, e.f_hi_hz, searched, z)
             {
                 nb.coherent_share = line_share.min(1.0);
                 let clean = remove_narrowband(y, fs, &nb, &local, state.psd.nperseg);
+                // A resonance's f₀, Q and σ are fitted only inside the fit band, where the model
+                // is the fit's own; beyond it the peak is measured as a band.
+                let beyond = if peak {
+                    format!(
+                        "; a peak beyond the fit band (which ends at {fit_edge:.3} Hz): measured \
+                         as a band (centre, width, power), not fitted as a resonance"
+                    )
+                } else {
+                    String::new()
+                };
                 out.push(Candidate {
                     veto: None,
                     delta_bic: nb.delta_bic,
                     evidence: format!(
-                        "{}; one coherent sinusoid explains {:.0} % of it",
+                        "{}; one coherent sinusoid explains {:.0} % of it{beyond}",
                         describe_excess(e),
                         100.0 * line_share.min(1.0)
                     ),
@@ -1097,6 +1116,14 @@ fn shoulder_ratio(psd: &Psd, model: &dyn Fn(f64) -> f64, f_lo: f64, f_hi: f64) -
 /// An excess group no wider than this fraction of its frequency is narrow (a line, possibly
 /// wandering: Q ≳ 20); wider ones are resonances.
 const NARROW_FRACTION: f64 = 0.05;
+
+/// Beyond the fit band, an excess group wider than [`NARROW_FRACTION`] but no wider than this
+/// fraction of its frequency, with shoulders on the model ([`OUT_OF_BAND_SLACK`]), is a peak (a
+/// resonance of Q ≳ 5: its group reaches about three half-power widths) rather than the filter's
+/// transition, which spans a good part of the corner frequency. Before this rule a resonance at
+/// 18 Hz (Q 30, peak 7–9× the floor) beside a 25-Hz filter was dismissed as the filter's edge in
+/// 5 of 5 records (`validation/`).
+const PEAK_FRACTION: f64 = 0.25;
 
 /// `into` extended by `more`, a later pass over the same line (its tails): powers and their
 /// interval ends add, the band is the union, the centre the power-weighted mean.
