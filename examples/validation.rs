@@ -426,6 +426,19 @@ fn sweep_cases() -> Vec<Case> {
             "resonance",
         ));
     }
+    // The study's resonance beyond the fit band (σ 1.5e-4 rad/s, peak 7–9× the floor through the
+    // 25-Hz filter), down to where it no longer stands out.
+    for sigma in [0.3e-4, 0.5e-4, 0.75e-4, 1.0e-4] {
+        cases.push(Case {
+            filtered: true,
+            ..sweep(
+                format!("resonance 18 Hz, Q 30, σ {sigma:.2e} rad/s beyond the fit band, low-pass order 2 at 25 Hz"),
+                json!({ "lowpass": { "corner_hz": 25.0, "order": 2 },
+                    "resonances": [{ "f0_hz": 18.0, "q": 30.0, "sigma": sigma }] }),
+                "narrowband",
+            )
+        });
+    }
     cases
 }
 
