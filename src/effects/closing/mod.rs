@@ -990,11 +990,13 @@ fn propose(
         let peak = !in_band
             && !narrow
             && width <= PEAK_FRACTION * e.freq_hz
+            && e.peak_ratio >= PEAK_MIN_RATIO
             && around.is_some_and(|a| a <= OUT_OF_BAND_SLACK);
         if !in_band && !narrow && !peak {
             unexplained.push(excess_note(
                 e,
-                "broad excess beyond the fit band (the sensor filter's transition): not an effect",
+                "broad or low excess beyond the fit band (the sensor filter's transition or \
+                 ripple): not an effect",
             ));
             continue;
         }
@@ -1124,6 +1126,14 @@ const NARROW_FRACTION: f64 = 0.05;
 /// 18 Hz (Q 30, peak 7–9× the floor) beside a 25-Hz filter was dismissed as the filter's edge in
 /// 5 of 5 records (`validation/`).
 const PEAK_FRACTION: f64 = 0.25;
+
+/// …and whose strongest bin stands at least this many times the model. A decimation filter's
+/// passband ripple (a few tenths of a dB) or a slightly misjudged response moves the level by
+/// tens of per cent over a band of a similar width, which long records measure as significant;
+/// a resonance worth naming stands out of the floor (the 18-Hz one above: 7–9×). Weaker peaks
+/// are narrow enough for the line search (its sweep in `validation/detection.md` finds them from
+/// a peak excess ≈ 0.9× the floor, where their group of excess bins is narrow).
+const PEAK_MIN_RATIO: f64 = 2.0;
 
 /// `into` extended by `more`, a later pass over the same line (its tails): powers and their
 /// interval ends add, the band is the union, the centre the power-weighted mean.
