@@ -596,3 +596,44 @@ fn an_effect_a_spectrum_does_not_see_comes_out_zero_beside_the_base_terms() {
     );
     assert!(fit.chi2_per_dof() < 2.0, "χ²/dof {}", fit.chi2_per_dof());
 }
+
+/// An absent term's upper limit is a bound the truth lies under at its stated level: 30-min
+/// records of N, B and K (K = 20 °/h/√h, often not admitted over 30 minutes), the Allan fit's
+/// 1σ (84 % one-sided) bound on K wherever the fit left K out. With the chosen model's variances
+/// it covered the truth in 1 of 24 such records (seeds 5 000 001–5 000 060, `imunoise analyze
+/// --no-loop`); at the fixed point in 21 of 24. Here 40 seeds of the default Allan fit alone: K
+/// absent in 19, the old bound covering it in 0 of them, the fixed point's in 12 (63 %, still
+/// below the nominal 84 %: the bound is no longer wrong by a factor but not yet calibrated). The
+/// test holds the half that separates the two by far.
+#[test]
+fn an_absent_random_walks_upper_limit_covers_the_truth() {
+    let fs = 100.0;
+    let truth = Coefficients {
+        n: CoefUnit::DegPerSqrtH.to_si(0.15),
+        b: CoefUnit::DegPerH.to_si(3.0),
+        k: CoefUnit::DegPerHPerSqrtH.to_si(20.0),
+        ..Default::default()
+    };
+    let (mut absent, mut covered) = (0, 0);
+    for seed in 0..40 {
+        let y = record(truth, fs, 180_000, 6_100_000 + seed);
+        let fit = fit_avar(&oadev(&y, fs), &FitOptions::default()).unwrap();
+        if fit.get(Term::RateRandomWalk).is_some() {
+            continue;
+        }
+        let upper = fit
+            .upper_limits
+            .iter()
+            .find(|u| u.term == Term::RateRandomWalk)
+            .expect("an absent K has an upper limit")
+            .upper;
+        absent += 1;
+        covered += usize::from(truth.k <= upper);
+    }
+    println!("K absent in {absent} of 40; its upper limit covers the truth in {covered}");
+    assert!(absent >= 8, "K absent in only {absent} of 40");
+    assert!(
+        covered as f64 >= 0.5 * absent as f64,
+        "{covered} of {absent}"
+    );
+}
