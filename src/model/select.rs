@@ -25,7 +25,7 @@
 //! coefficients, model curve and residuals) is what the report plots and tests for misfit.
 
 use super::average::mixture_quantile;
-use super::fit::{members, Mask, Problem, BASE, EFFECT, TERMS};
+use super::fit::{members, Mask, Problem, Weights, BASE, EFFECT, TERMS};
 use super::interval::coefficient_interval;
 use super::result::Domain;
 use super::{
@@ -205,7 +205,7 @@ pub(crate) fn select_and_fit(
             let with = mask | (1 << j);
             let all = members(with);
             let pos = all.iter().position(|&t| t == j).unwrap_or(0);
-            let bound = |w: &crate::model::fit::Weights| {
+            let bound = |w: &Weights| {
                 let c = problem.solve(with, w);
                 let sd = problem.covariance(w, &all).map_or(f64::INFINITY, |cov| {
                     (dispersion * cov[pos][pos]).max(0.0).sqrt()

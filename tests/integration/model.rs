@@ -604,7 +604,7 @@ fn an_effect_a_spectrum_does_not_see_comes_out_zero_beside_the_base_terms() {
 /// --no-loop`); at the fixed point in 21 of 24. Here 40 seeds of the default Allan fit alone: K
 /// absent in 19, the old bound covering it in 0 of them, the fixed point's in 12 (63 %, still
 /// below the nominal 84 %: the bound is no longer wrong by a factor but not yet calibrated). The
-/// test holds the half that separates the two by far.
+/// test holds 60 %, the binomial 1 % lower tail of 84 % over 10–20 such records.
 #[test]
 fn an_absent_random_walks_upper_limit_covers_the_truth() {
     let fs = 100.0;
@@ -633,7 +633,7 @@ fn an_absent_random_walks_upper_limit_covers_the_truth() {
     println!("K absent in {absent} of 40; its upper limit covers the truth in {covered}");
     assert!(absent >= 8, "K absent in only {absent} of 40");
     assert!(
-        covered as f64 >= 0.5 * absent as f64,
+        covered as f64 >= 0.6 * absent as f64,
         "{covered} of {absent}"
     );
 }
