@@ -28,7 +28,7 @@
 //! non-candidates (with the same half grid step in quadrature).
 //!
 //! **Cost on long records.** The scales come from an even spread of at most 65 536 samples, and
-//! the median residual is computed only where a plain linear residual (one sliding-sum pass)
+//! the median residual is computed only where a plain linear residual (one pass of window sums)
 //! exceeds twice its scale, which every candidate does (see [`find_spikes`]): no
 //! record-length buffer but the candidates' flags. Computing both residuals at every sample
 //! (and the kernel zeroing their fresh pages) was half the loop's time on 10⁷-sample records.
@@ -120,6 +120,16 @@ pub struct TailShape {
     pub continuous: bool,
 }
 
+impl TailShape {
+    /// The shoulder's counts of a heavy tail (see `continuous`, which also asks that no population
+    /// of spikes be found).
+    fn falls_steadily(&self) -> bool {
+        self.shoulder >= TAIL_MIN_SHOULDER
+            && self.shoulder as f64 > TAIL_SHOULDER_EXCESS * self.shoulder_gaussian
+            && self.shoulder >= self.next_band
+    }
+}
+
 /// One prescreen block's candidates (index, median residual) and its counts in the bands one σ
 /// below and above the threshold.
 type BlockFindings = (Vec<(usize, f64)>, [usize; 2]);
@@ -204,8 +214,8 @@ pub fn find_spikes_on_grid(y: &[f64], rate_hz: f64, grid: f64) -> Spikes {
             let range = b * PRESCREEN_BLOCK..((b + 1) * PRESCREEN_BLOCK).min(n);
             let mut bands = [0usize; 2];
             let mut found = Vec::new();
-            for i in linear_prescreen(y, range, PRESCREEN * l_scale) {
-                let z = (linear_residual_at(y, &[], i) / l_scale).abs();
+            for (i, r) in linear_prescreen(y, range, PRESCREEN * l_scale) {
+                let z = (r / l_scale).abs();
                 if (t - 1.0..t).contains(&z) {
                     bands[0] += 1;
                 } else if (t..t + 1.0).contains(&z) {
@@ -234,6 +244,13 @@ pub fn find_spikes_on_grid(y: &[f64], rate_hz: f64, grid: f64) -> Spikes {
         next_band: bands[1],
         continuous: false,
     };
+    if excess_at.is_empty() {
+        // No candidate, none left out: the confirming scale is the prescreen's, read from the
+        // same residuals (the 65 536 linear residuals recomputed came to the same bits).
+        out.sigma = l_scale;
+        out.tail.continuous = out.tail.falls_steadily();
+        return out;
+    }
     let mut candidates = vec![false; n];
     for &(i, _) in &excess_at {
         candidates[i] = true;
@@ -265,11 +282,7 @@ pub fn find_spikes_on_grid(y: &[f64], rate_hz: f64, grid: f64) -> Spikes {
         Some(population) => population.vouched_limit(t),
         None => t,
     };
-    let tail = &mut out.tail;
-    tail.continuous = population.is_none()
-        && tail.shoulder >= TAIL_MIN_SHOULDER
-        && tail.shoulder as f64 > TAIL_SHOULDER_EXCESS * tail.shoulder_gaussian
-        && tail.shoulder >= tail.next_band;
+    out.tail.continuous = population.is_none() && out.tail.falls_steadily();
     let confirmed: Vec<(usize, f64, f64)> = tested
         .into_iter()
         .filter(|c| c.2 > below)
@@ -493,29 +506,63 @@ fn ranked(w: &[f64; NEIGHBOURS], k: usize) -> f64 {
     *x
 }
 
-/// The samples in `range` whose plain linear residual (the mean of the 15-sample window without
-/// y_i, no sample left out) exceeds `limit`: one sliding-sum pass, no record-length buffer.
-fn linear_prescreen(y: &[f64], range: std::ops::Range<usize>, limit: f64) -> Vec<usize> {
+/// The samples in `range` whose plain linear residual (y_i minus the mean of the other 14 samples
+/// of its 15-sample window, no sample left out) exceeds `limit`, with that residual.
+///
+/// **How.** The window sums of the interior come from pairwise sums over a short block (2, 4, 8,
+/// then 8 + 4 + 2 + 1 samples): independent adds the compiler keeps in vector registers, where a
+/// sliding sum is one chain of dependent adds (its latency, 4 cycles a sample, was most of the
+/// spike search's time on 10⁷ samples) and drifts by its rounding between re-summations. The
+/// windows shifted at the ends are summed directly.
+fn linear_prescreen(y: &[f64], range: std::ops::Range<usize>, limit: f64) -> Vec<(usize, f64)> {
     const WIDTH: usize = NEIGHBOURS;
+    const HALF: usize = WIDTH / 2;
+    /// Window sums per block: the pairwise sums stay in the first-level cache.
+    const BLOCK: usize = 2048;
     let n = y.len();
     let mut out = Vec::new();
-    let mut start = range.start.saturating_sub(WIDTH / 2).min(n - WIDTH);
-    let mut sum: f64 = y[start..start + WIDTH].iter().sum();
     let scaled_limit = (WIDTH - 1) as f64 * limit;
-    for i in range {
-        let a = i.saturating_sub(WIDTH / 2).min(n - WIDTH);
-        while start < a {
-            sum += y[start + WIDTH] - y[start];
-            start += 1;
-            if start.is_multiple_of(4096) {
-                // Summed afresh now and then, so that rounding cannot build up.
-                sum = y[start..start + WIDTH].iter().sum();
-            }
+    // |y_i − (sum − y_i)/14| > limit, multiplied through by 14 (no division per sample).
+    let mut test = |i: usize, sum: f64| {
+        let excess = WIDTH as f64 * y[i] - sum;
+        if excess.abs() > scaled_limit {
+            out.push((i, excess / (WIDTH - 1) as f64));
         }
-        // |y_i − (sum − y_i)/14| > limit, multiplied through by 14 (no division per sample).
-        if (WIDTH as f64 * y[i] - sum).abs() > scaled_limit {
-            out.push(i);
+    };
+    let direct = |i: usize| {
+        let a = i.saturating_sub(HALF).min(n - WIDTH);
+        y[a..a + WIDTH].iter().sum::<f64>()
+    };
+    // Interior: the window y[i − 7 ..= i + 7].
+    let (first, end) = (range.start.max(HALF), range.end.min(n - HALF));
+    for i in range.start..first.min(range.end) {
+        test(i, direct(i));
+    }
+    let (mut p2, mut p4, mut p8) = (
+        vec![0.0; BLOCK + 13],
+        vec![0.0; BLOCK + 11],
+        vec![0.0; BLOCK + 7],
+    );
+    let mut start = first;
+    while start < end {
+        let len = (end - start).min(BLOCK);
+        let w = &y[start - HALF..start - HALF + len + WIDTH - 1];
+        for (j, v) in p2[..len + 13].iter_mut().enumerate() {
+            *v = w[j] + w[j + 1];
         }
+        for (j, v) in p4[..len + 11].iter_mut().enumerate() {
+            *v = p2[j] + p2[j + 2];
+        }
+        for (j, v) in p8[..len + 7].iter_mut().enumerate() {
+            *v = p4[j] + p4[j + 4];
+        }
+        for j in 0..len {
+            test(start + j, p8[j] + p4[j + 8] + p2[j + 12] + w[j + 14]);
+        }
+        start += len;
+    }
+    for i in end.max(range.start)..range.end {
+        test(i, direct(i));
     }
     out
 }
@@ -893,6 +940,54 @@ mod tests {
                 // limit, and the loosened limit lets the ties through to the exact test).
                 if quantum == 0.0 {
                     assert!(passed <= kept + kept / 100 + 2, "{passed} vs {kept}");
+                }
+            }
+        }
+    }
+
+    /// The blocked window sums give the samples, and the residuals, of the plain linear residual
+    /// sample by sample: across block boundaries, at both ends, on a large offset (where the sums
+    /// cancel) and on ranges that start and end anywhere.
+    #[test]
+    fn prescreen_matches_the_linear_residual_sample_by_sample() {
+        let mut rng = crate::sim::rng::Rng::new(17);
+        for offset in [0.0, 1e6] {
+            let y: Vec<f64> = rng.gauss_vec(9_000).iter().map(|v| offset + v).collect();
+            // Rounding of the sums: |residual| error up to ~1e-15 of the window sum.
+            let tol = 1e-13 * (1.0 + offset);
+            for range in [
+                0..y.len(),
+                3..5000,
+                4100..8995,
+                0..7,
+                8990..9000,
+                2047..2050,
+            ] {
+                for limit in [0.0, 1.5, 2.5] {
+                    let got = linear_prescreen(&y, range.clone(), limit);
+                    for &(i, r) in &got {
+                        assert!(range.contains(&i));
+                        let want = linear_residual_at(&y, &[], i);
+                        assert!(
+                            (r - want).abs() <= tol,
+                            "offset {offset} i {i}: {r} vs {want}"
+                        );
+                    }
+                    let indices: Vec<usize> = got.iter().map(|g| g.0).collect();
+                    let want: Vec<usize> = range
+                        .clone()
+                        .filter(|&i| linear_residual_at(&y, &[], i).abs() > limit)
+                        .collect();
+                    let differ = indices.iter().filter(|i| !want.contains(i)).count()
+                        + want.iter().filter(|i| !indices.contains(i)).count();
+                    let borderline = range
+                        .clone()
+                        .filter(|&i| (linear_residual_at(&y, &[], i).abs() - limit).abs() <= tol)
+                        .count();
+                    assert!(
+                        differ <= borderline,
+                        "offset {offset} range {range:?} limit {limit}"
+                    );
                 }
             }
         }
