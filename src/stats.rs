@@ -7,6 +7,23 @@ use std::f64::consts::SQRT_2;
 use statrs::distribution::{ChiSquared, Continuous, ContinuousCDF, Normal, StudentsT};
 use statrs::function::erf::{erfc, erfc_inv};
 
+/// Σ x_i in eight independent partial sums: a plain fold is one chain of dependent adds (one add
+/// per 4 cycles; on a 10⁷-sample record 11 ms a pass, and the loop's detectors pass over it
+/// several times), the lanes run in vector registers; and, as a side effect, the sum is more
+/// accurate.
+pub fn lane_sum(x: &[f64]) -> f64 {
+    const LANES: usize = 8;
+    let mut acc = [0.0; LANES];
+    let chunks = x.chunks_exact(LANES);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for (a, v) in acc.iter_mut().zip(c) {
+            *a += v;
+        }
+    }
+    acc.iter().sum::<f64>() + rest.iter().sum::<f64>()
+}
+
 /// P(Z > z) for a standard normal Z.
 pub fn norm_sf(z: f64) -> f64 {
     0.5 * erfc(z / SQRT_2)

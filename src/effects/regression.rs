@@ -214,7 +214,7 @@ impl IncrementModel {
         let means: Vec<f64> = v
             .chunks_exact(self.block)
             .take(self.m + 1)
-            .map(|c| c.iter().sum::<f64>() / self.block as f64)
+            .map(|c| crate::stats::lane_sum(c) / self.block as f64)
             .collect();
         means.windows(2).map(|w| w[1] - w[0]).collect()
     }

@@ -122,25 +122,32 @@ fn shape_block_means(
 ) -> Vec<f64> {
     match shape {
         DriftShape::Exponential { tc_s } => {
-            let r = (-1.0 / (fs * tc_s)).exp();
+            // (1 − r^b)/(b(1 − r)) with r = e^{−1/(fs τ)}, through expm1: 1 − r cancels for
+            // time constants long against the sample period.
+            let x = 1.0 / (fs * tc_s);
             let b = block as f64;
-            let within = if (1.0 - r).abs() < 1e-15 {
+            let within = if x == 0.0 {
                 1.0
             } else {
-                (1.0 - r.powf(b)) / (b * (1.0 - r))
+                (-b * x).exp_m1() / (b * (-x).exp_m1())
             };
             (0..count)
                 .map(|j| (-(j as f64) * b / (fs * tc_s)).exp() * within)
                 .collect()
         }
-        DriftShape::Quadratic => (0..count)
-            .map(|j| {
-                (j * block..(j + 1) * block)
-                    .map(|i| shape.at(i as f64 / fs, duration))
-                    .sum::<f64>()
-                    / block as f64
-            })
-            .collect(),
+        // The mean of (i/fs − D/2)² over the block's b consecutive samples, in closed form: the
+        // square at the block's mean time plus the variance of its times, (b² − 1)/(12 fs²).
+        // (Summed sample by sample it cost a pass over the record per fit.)
+        DriftShape::Quadratic => {
+            let b = block as f64;
+            let spread = (b * b - 1.0) / (12.0 * fs * fs);
+            (0..count)
+                .map(|j| {
+                    let mid = (j as f64 * b + (b - 1.0) / 2.0) / fs;
+                    (mid - duration / 2.0).powi(2) + spread
+                })
+                .collect()
+        }
     }
 }
 
@@ -337,6 +344,30 @@ mod tests {
                 rw + rng.gauss()
             })
             .collect()
+    }
+
+    /// The shapes' block means in closed form are the means of the shapes sample by sample.
+    #[test]
+    fn block_means_in_closed_form_match_the_samples() {
+        let (fs, block, count) = (200.0, 1000, 37);
+        let duration = (block * count) as f64 / fs;
+        for shape in [
+            DriftShape::Quadratic,
+            DriftShape::Exponential { tc_s: 30.0 },
+            DriftShape::Exponential { tc_s: 1e9 },
+        ] {
+            let got = shape_block_means(shape, fs, block, count, duration);
+            for (j, g) in got.iter().enumerate() {
+                let want = (j * block..(j + 1) * block)
+                    .map(|i| shape.at(i as f64 / fs, duration))
+                    .sum::<f64>()
+                    / block as f64;
+                assert!(
+                    (g - want).abs() <= 1e-12 * want.abs(),
+                    "{shape:?} block {j}: {g} vs {want}"
+                );
+            }
+        }
     }
 
     #[test]

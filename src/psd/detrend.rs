@@ -41,7 +41,7 @@ impl Detrend {
                 window_line(tail, w_tail, 0.0, 0.0, 0.0, out_tail);
             }
             Detrend::Constant => {
-                let mean = (lane_sum(head) + lane_sum(tail)) / n as f64;
+                let mean = (crate::stats::lane_sum(head) + crate::stats::lane_sum(tail)) / n as f64;
                 window_line(head, w_head, mean, 0.0, 0.0, out_head);
                 window_line(tail, w_tail, mean, 0.0, 0.0, out_tail);
             }
@@ -49,7 +49,7 @@ impl Detrend {
                 // Fit x ≈ mean + slope·(t − t̄) with t̄ = (n − 1)/2; centring t keeps the two
                 // coefficients uncorrelated, so each is a plain ratio with no cancellation.
                 let centre = (n as f64 - 1.0) / 2.0;
-                let mean = (lane_sum(head) + lane_sum(tail)) / n as f64;
+                let mean = (crate::stats::lane_sum(head) + crate::stats::lane_sum(tail)) / n as f64;
                 let sxt =
                     lane_moment(head, -centre) + lane_moment(tail, head.len() as f64 - centre);
                 // Σ (t − t̄)² = n(n² − 1)/12; zero for n = 1, where the line is the point itself.
@@ -83,22 +83,8 @@ fn window_line(x: &[f64], w: &[f64], mean: f64, slope: f64, t0: f64, out: &mut [
     }
 }
 
-/// Number of independent partial sums: breaks the add latency chain (a plain fold runs at one add
-/// per 4 cycles, which would cost as much as the FFT) and, as a side effect, sums more accurately.
+/// Number of independent partial sums (as [`crate::stats::lane_sum`]'s).
 const LANES: usize = 8;
-
-/// Σ x_i.
-fn lane_sum(x: &[f64]) -> f64 {
-    let mut acc = [0.0; LANES];
-    let chunks = x.chunks_exact(LANES);
-    let rest = chunks.remainder();
-    for c in chunks {
-        for (a, v) in acc.iter_mut().zip(c) {
-            *a += v;
-        }
-    }
-    acc.iter().sum::<f64>() + rest.iter().sum::<f64>()
-}
 
 /// Σ x_i·(t0 + i).
 fn lane_moment(x: &[f64], t0: f64) -> f64 {

@@ -95,7 +95,7 @@ pub fn find_step(y: &[f64], rate_hz: f64, p: f64) -> Option<Step> {
     if n < MIN_W * MIN_WINDOWS || !(rate_hz > 0.0) {
         return None;
     }
-    let mean = y.iter().sum::<f64>() / n as f64;
+    let mean = crate::stats::lane_sum(y) / n as f64;
     // A pooled record-length buffer: a fresh one cost its page faults on every call (9 % of the
     // analysis of 24 h × 400 Hz × 7 channels).
     let mut s = crate::memory::scratch(n + 1);
@@ -110,9 +110,11 @@ pub fn find_step(y: &[f64], rate_hz: f64, p: f64) -> Option<Step> {
     let windows: Vec<usize> = std::iter::successors(Some(MIN_W), |w| Some(w * 2))
         .take_while(|w| w * MIN_WINDOWS <= n)
         .collect();
+    let coarse = coarse_maxima(&s, &windows);
     let scans: Vec<Scan> = windows
         .into_par_iter()
-        .map_init(Vec::new, |d2, w| scan(&s, w, d2))
+        .zip(coarse)
+        .map_init(Vec::new, |d2, (w, k0)| scan(&s, w, k0?, d2))
         .flatten()
         .collect();
     crate::memory::recycle(s);
@@ -136,9 +138,67 @@ pub fn find_step(y: &[f64], rate_hz: f64, p: f64) -> Option<Step> {
     })
 }
 
-/// Scan at window `w` over prefix sums `s` (S_0 = 0, length n + 1); `d2` is scratch, reused
-/// across windows (a fresh buffer of a megabyte per window cost its page faults every time).
-fn scan(s: &[f64], w: usize, d2: &mut Vec<f64>) -> Option<Scan> {
+/// Positions scanned at window `w` first: every (w/16)-th. Neighbours w/16 apart are correlated by
+/// 0.91 (a step's peak loses at most 1/16 of its height between them), so the maximum refined
+/// around the best of them is the scan's maximum or within a few hundredths of it, at an eighth of
+/// the work of every position for the long windows (the scans were a fifth of the loop's time on
+/// 10⁷-sample records).
+fn coarse_stride(w: usize) -> usize {
+    (w / 16).max(1)
+}
+
+/// For each window of `windows`, the position of the largest |S_{k+w} − 2S_k + S_{k−w}| over
+/// k = w, w + c, … ≤ n − w (c = [`coarse_stride`]), the last of equals; `None` where there is no
+/// such k.
+///
+/// **Why one pass.** Scanned window by window, each short window streamed the whole prefix-sum
+/// array (80 MB on 10⁷ samples) from memory again: seven passes for w = 8 … 512, the largest part
+/// of the step search's time. Here the record is cut into spans that stay in the second-level
+/// cache while every window scans them, the spans in parallel; each span's best of each window
+/// comes from [`largest_difference`], and the spans' bests are merged in order, later ones winning
+/// ties, so the result is the whole-record scan's to the bit.
+fn coarse_maxima(s: &[f64], windows: &[usize]) -> Vec<Option<usize>> {
+    const SPAN: usize = 1 << 14;
+    let n = s.len() - 1;
+    let spans: Vec<Vec<Option<(usize, f64)>>> = (0..n.div_ceil(SPAN))
+        .into_par_iter()
+        .map(|b| {
+            let (lo, hi) = (b * SPAN, ((b + 1) * SPAN).min(n));
+            windows
+                .iter()
+                .map(|&w| {
+                    let c = coarse_stride(w);
+                    let (first, last) = (w, n.checked_sub(w)?);
+                    let k_first = first + lo.saturating_sub(first).div_ceil(c) * c;
+                    let k_end = last.min(hi.checked_sub(1)?);
+                    if k_first > k_end {
+                        return None;
+                    }
+                    let k_last = first + (k_end - first) / c * c;
+                    let k = largest_difference(s, w, k_first, k_last, c);
+                    Some((k, (s[k + w] - 2.0 * s[k] + s[k - w]).abs()))
+                })
+                .collect()
+        })
+        .collect();
+    (0..windows.len())
+        .map(|i| {
+            spans
+                .iter()
+                .filter_map(|span| span[i])
+                .fold(None, |best: Option<(usize, f64)>, (k, v)| match best {
+                    Some((_, b)) if v < b => best,
+                    _ => Some((k, v)),
+                })
+                .map(|(k, _)| k)
+        })
+        .collect()
+}
+
+/// Scan at window `w` over prefix sums `s` (S_0 = 0, length n + 1), from `k0`, the best position
+/// of its coarse scan ([`coarse_maxima`]); `d2` is scratch, reused across windows (a fresh buffer
+/// of a megabyte per window cost its page faults every time).
+fn scan(s: &[f64], w: usize, k0: usize, d2: &mut Vec<f64>) -> Option<Scan> {
     let n = s.len() - 1;
     let wf = w as f64;
     let at = |k: usize| (s[k + w] - 2.0 * s[k] + s[k - w]) / wf;
@@ -163,13 +223,8 @@ fn scan(s: &[f64], w: usize, d2: &mut Vec<f64>) -> Option<Scan> {
         return None;
     }
     let sd = var.sqrt();
-    // The scan: every (w/16)-th position, then every position within that stride of the largest.
-    // Neighbours w/16 apart are correlated by 0.91 (a step's peak loses at most 1/16 of its
-    // height between them), so the refined maximum is the scan's maximum or within a few
-    // hundredths of it, at an eighth of the work of every position for the long windows (the
-    // scans were a fifth of the loop's time on 10⁷-sample records).
-    let coarse = (w / 16).max(1);
-    let k0 = largest_difference(s, w, w, n - w, coarse);
+    // Every position within the coarse stride of the coarse scan's best.
+    let coarse = coarse_stride(w);
     let k = largest_difference(
         s,
         w,
@@ -310,6 +365,29 @@ mod tests {
             assert!(s.lo <= size && size <= s.hi);
             remove_step(&mut y, &s);
             assert!(find_step(&y, FS, 0.95).unwrap().delta_bic > 0.0);
+        }
+    }
+
+    /// The spans' merged bests are the whole-record coarse scan of each window, for records that
+    /// end inside a span or on its edge, on noise and on ties.
+    #[test]
+    fn coarse_maxima_match_the_whole_record_scan() {
+        let mut rng = crate::sim::rng::Rng::new(5);
+        for n in [40_000, 1 << 15, 70_001] {
+            let noisy: Vec<f64> = rng.gauss_vec(n + 1);
+            let tied: Vec<f64> = (0..=n)
+                .map(|i| f64::from(((i * 7919) % 5) as u32))
+                .collect();
+            for s in [&noisy, &tied] {
+                let windows: Vec<usize> = std::iter::successors(Some(MIN_W), |w| Some(w * 2))
+                    .take_while(|w| w * MIN_WINDOWS <= n)
+                    .collect();
+                let got = coarse_maxima(s, &windows);
+                for (&w, k) in windows.iter().zip(got) {
+                    let want = largest_difference(s, w, w, n - w, coarse_stride(w));
+                    assert_eq!(k, Some(want), "n {n} w {w}");
+                }
+            }
         }
     }
 
