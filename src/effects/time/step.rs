@@ -257,9 +257,9 @@ fn scan(s: &[f64], w: usize, k0: usize, d2: &mut Vec<f64>) -> Option<Scan> {
 }
 
 /// The position k in `first..=last` (every `stride`-th) where |S_{k+w} − 2S_k + S_{k−w}| is largest,
-/// the last of equals (as `max_by` picks). Block maxima first, in loops the compiler keeps in
-/// vector registers (an arg-max loop, or an iterator chain through `dyn Iterator` and `max_by`,
-/// cannot be; the latter cost a tenth of the loop's time on 10⁷ samples), then the position
+/// the last of equals (as `max_by` picks). Block maxima first ([`lane_max`] where the stride is
+/// 1; an arg-max loop, or an iterator chain through `dyn Iterator` and `max_by`, keeps nothing in
+/// vector registers: the latter cost a tenth of the loop's time on 10⁷ samples), then the position
 /// inside the best block.
 fn largest_difference(s: &[f64], w: usize, first: usize, last: usize, stride: usize) -> usize {
     const BLOCK: usize = 2048;
@@ -270,15 +270,7 @@ fn largest_difference(s: &[f64], w: usize, first: usize, last: usize, stride: us
         let end = (b + BLOCK).min(count);
         let m = if stride == 1 {
             let (k0, k1) = (first + b, first + end);
-            let ahead = &s[k0 + w..k1 + w];
-            let here = &s[k0..k1];
-            let behind = &s[k0 - w..k1 - w];
-            ahead
-                .iter()
-                .zip(here)
-                .zip(behind)
-                .map(|((a, h), c)| (a - 2.0 * h + c).abs())
-                .fold(-1.0, |m: f64, v| if v > m { v } else { m })
+            lane_max(&s[k0 + w..k1 + w], &s[k0..k1], &s[k0 - w..k1 - w])
         } else {
             (b..end)
                 .map(|j| at(first + j * stride))
@@ -294,6 +286,34 @@ fn largest_difference(s: &[f64], w: usize, first: usize, last: usize, stride: us
         .map(|j| first + j * stride)
         .find(|&k| at(k) == best)
         .unwrap_or(first)
+}
+
+/// The largest |a_i − 2h_i + c_i| of three equal-length slices (−1 for none), in eight lanes: a
+/// single running maximum is one chain of dependent compares, the lanes run in vector registers.
+/// The maximum of the lanes' maxima is the maximum (no NaN enters either: `v > m` is false for
+/// it), so the result is the plain fold's to the bit.
+fn lane_max(ahead: &[f64], here: &[f64], behind: &[f64]) -> f64 {
+    const LANES: usize = 8;
+    let mut acc = [-1.0f64; LANES];
+    let chunks = ahead.len() / LANES * LANES;
+    for ((a, h), c) in ahead[..chunks]
+        .chunks_exact(LANES)
+        .zip(here[..chunks].chunks_exact(LANES))
+        .zip(behind[..chunks].chunks_exact(LANES))
+    {
+        for j in 0..LANES {
+            let v = (a[j] - 2.0 * h[j] + c[j]).abs();
+            acc[j] = if v > acc[j] { v } else { acc[j] };
+        }
+    }
+    let rest = ahead[chunks..]
+        .iter()
+        .zip(&here[chunks..])
+        .zip(&behind[chunks..])
+        .map(|((a, h), c)| (a - 2.0 * h + c).abs());
+    acc.into_iter()
+        .chain(rest)
+        .fold(-1.0, |m: f64, v| if v > m { v } else { m })
 }
 
 /// Subtracts the step from every sample from its index on.
