@@ -366,8 +366,12 @@ struct State<'a> {
 pub const MAX_SPIKE_SHARE: f64 = 0.05;
 
 fn estimates(y: &[f64], fs: f64, cfg: &LoopConfig) -> Option<(Deviations, Psd, BinnedPsd)> {
-    let dev = compute(y, fs, &cfg.taus, Statistic::Oadev, cfg.confidence).ok()?;
-    let psd = welch(y, fs, &cfg.welch).ok()?;
+    // Independent: side by side (a channel left alone at the end of a file has a core to spare).
+    let (dev, psd) = rayon::join(
+        || compute(y, fs, &cfg.taus, Statistic::Oadev, cfg.confidence).ok(),
+        || welch(y, fs, &cfg.welch).ok(),
+    );
+    let (dev, psd) = (dev?, psd?);
     let binned = log_bin(&psd, cfg.bins_per_decade.max(1));
     Some((dev, psd, binned))
 }
