@@ -50,12 +50,15 @@ impl Correlation {
     /// The per-term correlations mixed with weights `share[i][j]` (rows summing to 1).
     pub(crate) fn mix(per_term: &[Vec<Vec<f64>>], share: &[[f64; TERMS]]) -> Vec<Vec<f64>> {
         let n = share.len();
+        // √(s_ij·s_kj) as √s_ij·√s_kj: the roots once per point, not once per pair and term (the
+        // mixing runs at every reweighting of every fit).
+        let root: Vec<[f64; TERMS]> = share.iter().map(|s| s.map(f64::sqrt)).collect();
         let mut r = vec![vec![0.0; n]; n];
         for i in 0..n {
             r[i][i] = 1.0;
             for k in 0..i {
                 let v: f64 = (0..TERMS)
-                    .map(|j| (share[i][j] * share[k][j]).sqrt() * per_term[j][i][k])
+                    .map(|j| root[i][j] * root[k][j] * per_term[j][i][k])
                     .sum();
                 r[i][k] = v;
                 r[k][i] = v;
