@@ -75,7 +75,7 @@ pub fn chi2_sf(x: f64, k: f64) -> f64 {
 /// the model stage's time on 812 min at 207 Hz). From ν = 10⁵ the uniform expansion below, cut
 /// after its third term, gives both tails to 10⁻¹² of the smaller one or better out to 9σ (the
 /// tests hold it to 40-digit arithmetic; statrs' own series is off by 10⁻¹¹ there).
-pub const TEMME_MIN_NU: f64 = 1e5;
+const TEMME_MIN_NU: f64 = 1e5;
 
 /// (P(X ≤ x), P(X > x)) for X ~ χ² with `nu` degrees of freedom, large `nu`
 /// (≥ [`TEMME_MIN_NU`]): Temme's uniform asymptotic expansion of the regularised incomplete gamma
@@ -167,7 +167,7 @@ pub fn normal_quantile(p: f64) -> f64 {
 /// statrs' generic `inverse_cdf` stops after a fixed small number of bisection and Newton steps,
 /// which is not accurate enough at the large EDFs of long recordings, so this starts from the
 /// Wilson–Hilferty approximation (already within ~1e-4 for ν ≥ 10) and refines it with safeguarded
-/// Newton steps on statrs' accurate CDF (from ν = [`TEMME_MIN_NU`] on, [`chi2_tails_large`]'s)
+/// Newton steps on statrs' CDF (from ν = 10⁵ on, Temme's expansion: `chi2_tails_large`)
 /// until the step is below 1e-15 relative.
 pub fn chi2_quantile(p: f64, nu: f64) -> f64 {
     let Ok(dist) = ChiSquared::new(nu) else {
