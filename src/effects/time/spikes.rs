@@ -210,11 +210,11 @@ pub fn find_spikes_on_grid(y: &[f64], rate_hz: f64, grid: f64) -> Spikes {
     // prescreened samples also give the tail's shape about t (see [`TailShape`]).
     let blocks: Vec<BlockFindings> = (0..n.div_ceil(PRESCREEN_BLOCK))
         .into_par_iter()
-        .map(|b| {
+        .map_init(Prescreen::default, |buffers, b| {
             let range = b * PRESCREEN_BLOCK..((b + 1) * PRESCREEN_BLOCK).min(n);
             let mut bands = [0usize; 2];
             let mut found = Vec::new();
-            for (i, r) in linear_prescreen(y, range, PRESCREEN * l_scale) {
+            for &(i, r) in linear_prescreen(y, range, PRESCREEN * l_scale, buffers) {
                 let z = (r / l_scale).abs();
                 if (t - 1.0..t).contains(&z) {
                     bands[0] += 1;
@@ -514,16 +514,36 @@ fn ranked(w: &[f64; NEIGHBOURS], k: usize) -> f64 {
 /// sliding sum is one chain of dependent adds (its latency, 4 cycles a sample, was most of the
 /// spike search's time on 10⁷ samples) and drifts by its rounding between re-summations. The
 /// windows shifted at the ends are summed directly.
-fn linear_prescreen(y: &[f64], range: std::ops::Range<usize>, limit: f64) -> Vec<(usize, f64)> {
+fn linear_prescreen<'b>(
+    y: &[f64],
+    range: std::ops::Range<usize>,
+    limit: f64,
+    buffers: &'b mut Prescreen,
+) -> &'b [(usize, f64)] {
     const WIDTH: usize = NEIGHBOURS;
     const HALF: usize = WIDTH / 2;
-    /// Window sums per block: the pairwise sums stay in the first-level cache.
-    const BLOCK: usize = 2048;
+    const BLOCK: usize = PRESCREEN_SUMS;
     let n = y.len();
-    let mut out = Vec::new();
+    let Prescreen {
+        p2,
+        p4,
+        p8,
+        excess,
+        beyond,
+        out,
+    } = buffers;
+    if p2.is_empty() {
+        (*p2, *p4, *p8) = (
+            vec![0.0; BLOCK + 13],
+            vec![0.0; BLOCK + 11],
+            vec![0.0; BLOCK + 7],
+        );
+        (*excess, *beyond) = (vec![0.0; BLOCK], vec![0u32; BLOCK]);
+    }
+    out.clear();
     let scaled_limit = (WIDTH - 1) as f64 * limit;
     // |y_i − (sum − y_i)/14| > limit, multiplied through by 14 (no division per sample).
-    let mut test = |i: usize, sum: f64| {
+    let test = |out: &mut Vec<(usize, f64)>, i: usize, sum: f64| {
         let excess = WIDTH as f64 * y[i] - sum;
         if excess.abs() > scaled_limit {
             out.push((i, excess / (WIDTH - 1) as f64));
@@ -536,35 +556,62 @@ fn linear_prescreen(y: &[f64], range: std::ops::Range<usize>, limit: f64) -> Vec
     // Interior: the window y[i − 7 ..= i + 7].
     let (first, end) = (range.start.max(HALF), range.end.min(n - HALF));
     for i in range.start..first.min(range.end) {
-        test(i, direct(i));
+        test(out, i, direct(i));
     }
-    let (mut p2, mut p4, mut p8) = (
-        vec![0.0; BLOCK + 13],
-        vec![0.0; BLOCK + 11],
-        vec![0.0; BLOCK + 7],
-    );
     let mut start = first;
     while start < end {
         let len = (end - start).min(BLOCK);
         let w = &y[start - HALF..start - HALF + len + WIDTH - 1];
-        for (j, v) in p2[..len + 13].iter_mut().enumerate() {
-            *v = w[j] + w[j + 1];
+        // (Zipped slices: no bounds check in the loops, which keeps them vectorised.)
+        for ((v, a), b) in p2[..len + 13].iter_mut().zip(w).zip(&w[1..]) {
+            *v = a + b;
         }
-        for (j, v) in p4[..len + 11].iter_mut().enumerate() {
-            *v = p2[j] + p2[j + 2];
+        for ((v, a), b) in p4[..len + 11].iter_mut().zip(&p2[..]).zip(&p2[2..]) {
+            *v = a + b;
         }
-        for (j, v) in p8[..len + 7].iter_mut().enumerate() {
-            *v = p4[j] + p4[j + 4];
+        for ((v, a), b) in p8[..len + 7].iter_mut().zip(&p4[..]).zip(&p4[4..]) {
+            *v = a + b;
         }
-        for j in 0..len {
-            test(start + j, p8[j] + p4[j + 8] + p2[j + 12] + w[j + 14]);
+        // The excess of every sample first (independent, so vectorised), then the few beyond the
+        // limit gathered without a branch per sample: taken by about one sample in twenty at
+        // random, that branch was mispredicted often enough to cost more than the sums.
+        let sums = p8.iter().zip(&p4[8..]).zip(&p2[12..]).zip(&w[14..]);
+        for ((e, yi), (((s8, s4), s2), s1)) in excess[..len].iter_mut().zip(&w[HALF..]).zip(sums) {
+            *e = WIDTH as f64 * yi - (s8 + s4 + s2 + s1);
         }
+        let mut hits = 0;
+        for (j, e) in excess[..len].iter().enumerate() {
+            beyond[hits] = j as u32;
+            hits += usize::from(e.abs() > scaled_limit);
+        }
+        out.extend(
+            beyond[..hits]
+                .iter()
+                .map(|&j| (start + j as usize, excess[j as usize] / (WIDTH - 1) as f64)),
+        );
         start += len;
     }
     for i in end.max(range.start)..range.end {
-        test(i, direct(i));
+        test(out, i, direct(i));
     }
     out
+}
+
+/// Samples whose window sums [`linear_prescreen`] forms at a time: its pairwise sums stay in the
+/// first-level cache.
+const PRESCREEN_SUMS: usize = 2048;
+
+/// [`linear_prescreen`]'s working buffers, made once per parallel task: allocated per
+/// 65 536-sample block, they were faulted in afresh each time the allocator had handed their
+/// pages back (on 3.5·10⁷ samples, 5·10⁴ page faults a channel).
+#[derive(Default)]
+struct Prescreen {
+    p2: Vec<f64>,
+    p4: Vec<f64>,
+    p8: Vec<f64>,
+    excess: Vec<f64>,
+    beyond: Vec<u32>,
+    out: Vec<(usize, f64)>,
 }
 
 /// Replaces each spike by a draw from its distribution given its clean neighbours (see
@@ -951,6 +998,8 @@ mod tests {
     #[test]
     fn prescreen_matches_the_linear_residual_sample_by_sample() {
         let mut rng = crate::sim::rng::Rng::new(17);
+        // One set of buffers for every call: what a call leaves in them must not leak into the next.
+        let mut buffers = Prescreen::default();
         for offset in [0.0, 1e6] {
             let y: Vec<f64> = rng.gauss_vec(9_000).iter().map(|v| offset + v).collect();
             // Rounding of the sums: |residual| error up to ~1e-15 of the window sum.
@@ -964,7 +1013,7 @@ mod tests {
                 2047..2050,
             ] {
                 for limit in [0.0, 1.5, 2.5] {
-                    let got = linear_prescreen(&y, range.clone(), limit);
+                    let got = linear_prescreen(&y, range.clone(), limit, &mut buffers).to_vec();
                     for &(i, r) in &got {
                         assert!(range.contains(&i));
                         let want = linear_residual_at(&y, &[], i);
