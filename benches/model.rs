@@ -3,7 +3,8 @@
 //! spectrum, `simulate` of one channel with every IEEE term (flicker dominates: one real FFT of
 //! ≥ 4n points), and the model stage against the estimation it follows (`loop_vs_estimation`: the
 //! OADEV, Welch spectrum and log bins of one channel, then the whole residual loop on them, as
-//! `analyze` runs it per channel).
+//! `analyze` runs it per channel), and both on the reference paper's workload as `analyze` runs
+//! it, reading included (`analyze_paper_workload`).
 //!
 //! `cargo bench --bench model`.
 
@@ -100,5 +101,100 @@ fn loop_vs_estimation(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, fits, simulator, loop_vs_estimation);
+/// The reference paper's workload (3 gyro axes, 812 min at 207 Hz: N and B of its Table 4 and 5,
+/// as `examples/paper_workload.rs`), written once as an f32 Arrow file and analysed as `analyze`
+/// does with its default options: `estimation` reads the file with the streamed Welch spectrum
+/// and computes the Allan deviations; `estimation_fit_loop` does the same, then the fits and the
+/// residual loop of every channel. The model stage's time is the difference of the two: what
+/// "fit and loop no longer than the estimation" compares, reading included, which the in-memory
+/// `loop_vs_estimation` leaves out.
+fn analyze_paper_workload(c: &mut Criterion) {
+    use imunoise::avar::Confidence;
+    use imunoise::estimate::CpuBackend;
+    use imunoise::io::{write_recording, ColumnOut, StoredAs};
+    use imunoise::model::CoefUnit;
+    use imunoise::pipeline::{run, AvarWork, Inputs, Silent, TauSpec, WelchWork, Work};
+
+    const RATE_HZ: f64 = 207.0;
+    let (arw, bi) = ([0.024, 0.029, 0.030], [0.0013, 0.0015, 0.0015]);
+    let spec = SimSpec {
+        rate_hz: RATE_HZ,
+        duration_s: 812.0 * 60.0,
+        seed: 2014,
+        channels: (0..3)
+            .map(|i| {
+                ChannelSpec::new(
+                    format!("gyro_{i}"),
+                    Sensor::Gyro,
+                    Coefficients {
+                        n: CoefUnit::DegPerSPerSqrtHz.to_si(arw[i]),
+                        b: CoefUnit::DegPerS.to_si(bi[i]),
+                        ..Default::default()
+                    },
+                )
+            })
+            .collect(),
+        temperature: None,
+    };
+    let dir = std::env::temp_dir().join(format!("imunoise-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("paper.arrow");
+    {
+        let sim = simulate(&spec).unwrap();
+        let columns: Vec<ColumnOut<'_>> = sim
+            .channels
+            .iter()
+            .map(|c| ColumnOut {
+                name: &c.name,
+                unit: c.unit,
+                kind: c.kind,
+                samples: &c.samples,
+            })
+            .collect();
+        write_recording(&path, RATE_HZ, &columns, StoredAs::F32).unwrap();
+    }
+    // `analyze`'s defaults (its report.json `options`).
+    let estimation = Work {
+        welch: Some(WelchWork {
+            plan: WelchConfig::new(4096).validate().unwrap(),
+            bins_per_decade: Some(20),
+        }),
+        avar: Some(AvarWork {
+            statistics: vec![Statistic::Oadev],
+            taus: TauSpec::Grid(TauGrid::Octave),
+            confidence: Confidence::OneSigma,
+        }),
+        fit: None,
+        residual_loop: false,
+    };
+    let whole = Work {
+        fit: Some(FitOptions::default()),
+        residual_loop: true,
+        ..estimation.clone()
+    };
+    let inputs = Inputs::default();
+    let mut group = c.benchmark_group("analyze_paper_workload");
+    group.sample_size(10);
+    for (name, work) in [("estimation", &estimation), ("estimation_fit_loop", &whole)] {
+        // Each repetition as a fresh process starts: nothing remembered from the one before
+        // (the model stage's memos, the pooled record-length buffers).
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                imunoise::memo::forget_all();
+                imunoise::memory::release_cached_memory();
+                run(&path, &inputs, work, &CpuBackend, &Silent).unwrap()
+            })
+        });
+    }
+    group.finish();
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+criterion_group!(
+    benches,
+    fits,
+    simulator,
+    loop_vs_estimation,
+    analyze_paper_workload
+);
 criterion_main!(benches);
