@@ -55,7 +55,9 @@ mod tau;
 mod variances;
 
 pub use crate::memory::release_cached_memory;
-pub use compute::{checked_factors, compute, compute_statistics, deviations_from_variances};
+pub use compute::{
+    checked_factors, compute, compute_owned, compute_statistics, deviations_from_variances,
+};
 pub use confidence::{chi2_quantile, variance_bounds, Confidence, ONE_SIGMA};
 pub use deviations::Deviations;
 pub use error::AvarError;

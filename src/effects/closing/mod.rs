@@ -32,7 +32,7 @@ use std::borrow::Cow;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::avar::{compute, Confidence, Deviations, Statistic, TauGrid};
+use crate::avar::{compute, compute_owned, Confidence, Deviations, Statistic, TauGrid};
 use crate::model::{
     average_with_rival, bic_weight, fit_avar_with, fit_psd_with, Bandwidth, Coefficients,
     EffectEstimate, EffectShape, FitOptions, FitWarning, NoiseFit, Term, SELECTION_WINDOW,

@@ -9,19 +9,17 @@ use super::*;
 pub(super) const REFINE_P: f64 = 0.05;
 
 /// The Allan fit of the current series after `correct`: the noise model with a slow effect taken
-/// out. `work` holds the corrected copy (reused across passes, so that each does not allocate
-/// and fault in a record-length buffer afresh).
+/// out. The corrected copy is a pooled buffer in which the Allan deviation builds its prefix sums
+/// ([`compute_owned`]): one record-length buffer a refit, not two.
 pub(super) fn allan_without(
     state: &State,
     fs: f64,
     cfg: &LoopConfig,
     correct: &dyn Fn(&mut Vec<f64>),
-    work: &mut Vec<f64>,
 ) -> Option<NoiseFit> {
-    work.clear();
-    work.extend_from_slice(&state.y);
-    correct(work);
-    let dev = compute(work, fs, &cfg.taus, Statistic::Oadev, cfg.confidence).ok()?;
+    let mut work = pooled_copy(&state.y);
+    correct(&mut work);
+    let dev = compute_owned(work, fs, &cfg.taus, Statistic::Oadev, cfg.confidence).ok()?;
     let shape = state.stochastic.as_ref().map(Stochastic::shape);
     fit_avar_with(&dev, &cfg.fit, shape).ok()
 }
@@ -64,12 +62,10 @@ pub(super) fn refined<T>(
     iterate: Option<&dyn Fn(&T) -> f64>,
 ) -> T {
     let mut current = first;
-    // The corrected copy of the series: record-length, so from the pool (see [`allan_without`]).
-    let mut work = crate::memory::scratch(state.y.len());
     let passes = if iterate.is_some() { REFINE_PASSES } else { 1 };
     for pass in 0..passes {
         let correct = |v: &mut Vec<f64>| remove(v, &current);
-        let next = allan_without(state, fs, cfg, &correct, &mut work)
+        let next = allan_without(state, fs, cfg, &correct)
             .and_then(|fit| estimate(&noise_density(&fit, state.stochastic.as_ref(), fs)));
         let Some(next) = next else { break };
         // The first pass replaces the estimate made under the fit that holds the effect; a later
@@ -82,7 +78,6 @@ pub(super) fn refined<T>(
             break;
         }
     }
-    crate::memory::recycle(work);
     current
 }
 
