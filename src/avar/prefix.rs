@@ -397,7 +397,7 @@ fn fill_group_in_place(
                 }
             }
             // A partial last block ending on a sub-anchor: that anchor is still inside S.
-            if len % SUB == 0 && len / SUB < SUBS {
+            if len.is_multiple_of(SUB) && len / SUB < SUBS {
                 subs[l * SUBS + len / SUB] = t;
             }
             totals[l] = t;
