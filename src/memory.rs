@@ -42,10 +42,12 @@ static POOL: std::sync::Mutex<Vec<Vec<f64>>> = std::sync::Mutex::new(Vec::new())
 
 /// Buffers the pool keeps: one per worker thread, and two more. A thread waiting in a join runs
 /// other tasks meanwhile (another channel's detector), so more buffers than threads are in use at
-/// times; with one per thread, the loop over 24 h × 400 Hz × 7 channels dropped and faulted in a
-/// 276-MB buffer afresh on some runs (190 000 page faults in the fit instead of 123 000, its
-/// kernel time 0.13 → 0.3–0.6 s). Idle pooled buffers stay resident, but the peak was not higher
-/// (2.54–2.60 GB against 2.79–3.03 GB before, measured on that file).
+/// times. With one per thread, the loop over 24 h × 400 Hz × 7 channels made a 276-MB buffer
+/// afresh on some runs (190 000 page faults in the fit instead of 123 000, and on this project's
+/// virtual machine up to a second more of system time); with two more, and a refit's prefix sums
+/// built in its own copy ([`crate::avar::compute_owned`]), 7 runs of 7 made none beyond the first
+/// two. Idle pooled buffers stay resident, but the peak was lower, not higher (2.55–2.62 GB
+/// against 2.8–3.0 GB, measured on that file): fewer buffers were freed and made again.
 fn pool_size() -> usize {
     rayon::current_num_threads().max(1) + 2
 }

@@ -606,9 +606,8 @@ fn linear_prescreen<'b>(
 /// first-level cache.
 const PRESCREEN_SUMS: usize = 2048;
 
-/// [`linear_prescreen`]'s working buffers, made once per parallel task: allocated per
-/// 65 536-sample block, they were faulted in afresh each time the allocator had handed their
-/// pages back (on 3.5·10⁷ samples, 5·10⁴ page faults a channel).
+/// [`linear_prescreen`]'s working buffers (and its output), made once per parallel task instead of
+/// once per 65 536-sample block.
 #[derive(Default)]
 struct Prescreen {
     p2: Vec<f64>,
