@@ -90,12 +90,25 @@ fn loop_vs_estimation(c: &mut Criterion) {
     for n in [1usize << 20, 1 << 22] {
         let y = simulate(&spec(n)).unwrap().channels.remove(0).samples;
         group.throughput(Throughput::Elements(n as u64));
+        // Each repetition starts cold, as a new process would: the model stage's memos forgotten
+        // (the same channel's covariances would otherwise all be remembered from the first) and
+        // the pooled record-length buffers released.
+        let cold = || {
+            imunoise::memo::forget_all();
+            imunoise::memory::release_cached_memory();
+        };
         group.bench_with_input(BenchmarkId::new("estimate", n), &y, |b, y| {
-            b.iter(|| estimate(black_box(y)))
+            b.iter(|| {
+                cold();
+                estimate(black_box(y))
+            })
         });
         let initial = estimate(&y);
         group.bench_with_input(BenchmarkId::new("fit_and_loop", n), &y, |b, y| {
-            b.iter(|| close_loop(black_box(y), FS, &[], &cfg, Some(initial.clone())).unwrap())
+            b.iter(|| {
+                cold();
+                close_loop(black_box(y), FS, &[], &cfg, Some(initial.clone())).unwrap()
+            })
         });
     }
     group.finish();
