@@ -46,8 +46,8 @@ static POOL: std::sync::Mutex<Vec<Vec<f64>>> = std::sync::Mutex::new(Vec::new())
 /// afresh on some runs (190 000 page faults in the fit instead of 123 000, and on this project's
 /// virtual machine up to a second more of system time); with two more, and a refit's prefix sums
 /// built in its own copy ([`crate::avar::compute_owned`]), 7 runs of 7 made none beyond the first
-/// two. Idle pooled buffers stay resident, but the peak was lower, not higher (2.55–2.62 GB
-/// against 2.8–3.0 GB, measured on that file): fewer buffers were freed and made again.
+/// two. Idle pooled buffers stay resident, but the peak was lower, not higher (2.61–2.68 GB
+/// against 2.86–3.11 GB, measured on that file): fewer buffers were freed and made again.
 fn pool_size() -> usize {
     rayon::current_num_threads().max(1) + 2
 }
