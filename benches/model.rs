@@ -124,7 +124,7 @@ fn loop_vs_estimation(c: &mut Criterion) {
 fn analyze_paper_workload(c: &mut Criterion) {
     use imunoise::avar::Confidence;
     use imunoise::estimate::CpuBackend;
-    use imunoise::io::{write_recording, ColumnOut, StoredAs};
+    use imunoise::io::StoredAs;
     use imunoise::model::CoefUnit;
     use imunoise::pipeline::{run, AvarWork, Inputs, Silent, TauSpec, WelchWork, Work};
 
@@ -152,20 +152,10 @@ fn analyze_paper_workload(c: &mut Criterion) {
     let dir = std::env::temp_dir().join(format!("imunoise-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("paper.arrow");
-    {
-        let sim = simulate(&spec).unwrap();
-        let columns: Vec<ColumnOut<'_>> = sim
-            .channels
-            .iter()
-            .map(|c| ColumnOut {
-                name: &c.name,
-                unit: c.unit,
-                kind: c.kind,
-                samples: &c.samples,
-            })
-            .collect();
-        write_recording(&path, RATE_HZ, &columns, StoredAs::F32).unwrap();
-    }
+    simulate(&spec)
+        .unwrap()
+        .write(&path, StoredAs::F32)
+        .unwrap();
     // `analyze`'s defaults (its report.json `options`).
     let estimation = Work {
         welch: Some(WelchWork {

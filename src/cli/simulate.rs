@@ -1,9 +1,9 @@
 //! `imunoise simulate`: a specification (JSON file, flags, or both) validated into a
-//! [`SimSpec`], simulated by the library and written through [`imunoise::io::write_recording`].
+//! [`SimSpec`], simulated by the library and written through [`imunoise::sim::Simulation::write`].
 
 use std::path::PathBuf;
 
-use imunoise::io::{write_recording, ColumnOut, Format, StoredAs};
+use imunoise::io::{Format, StoredAs};
 use imunoise::model::{CoefUnit, Sensor, Term};
 use imunoise::sim::{simulate, SimSpec};
 use serde_json::{json, Value};
@@ -161,17 +161,7 @@ pub fn run(job: &SimulateJob) -> i32 {
             return EXIT_FATAL;
         }
     };
-    let columns: Vec<ColumnOut<'_>> = sim
-        .channels
-        .iter()
-        .map(|c| ColumnOut {
-            name: &c.name,
-            unit: c.unit,
-            kind: c.kind,
-            samples: &c.samples,
-        })
-        .collect();
-    if let Err(e) = write_recording(&job.out, sim.rate_hz, &columns, job.stored) {
+    if let Err(e) = sim.write(&job.out, job.stored) {
         eprintln!("imunoise: {e}");
         return EXIT_FATAL;
     }
@@ -179,7 +169,7 @@ pub fn run(job: &SimulateJob) -> i32 {
         eprintln!(
             "wrote {}: {} channels × {} samples at {} Hz (seed {})",
             job.out.display(),
-            columns.len(),
+            sim.channels.len(),
             job.spec.samples(),
             job.spec.rate_hz,
             job.spec.seed

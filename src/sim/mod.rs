@@ -74,6 +74,31 @@ pub struct Simulation {
     pub channels: Vec<SimChannel>,
 }
 
+impl Simulation {
+    /// Writes the channels as a recording at `path` (its extension names the format, as
+    /// [`crate::io::write_recording`] reads it), every column with its name, kind and SI unit.
+    ///
+    /// # Errors
+    /// [`crate::report::OutputError`] as [`crate::io::write_recording`] returns it.
+    pub fn write(
+        &self,
+        path: &std::path::Path,
+        stored: crate::io::StoredAs,
+    ) -> Result<(), crate::report::OutputError> {
+        let columns: Vec<crate::io::ColumnOut<'_>> = self
+            .channels
+            .iter()
+            .map(|c| crate::io::ColumnOut {
+                name: &c.name,
+                unit: c.unit,
+                kind: c.kind,
+                samples: &c.samples,
+            })
+            .collect();
+        crate::io::write_recording(path, self.rate_hz, &columns, stored)
+    }
+}
+
 /// One simulated column with what a writer needs (name, unit, kind) and what a test needs (truth).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct SimChannel {

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 
 use arrow_array::RecordBatch;
-use imunoise::io::{write_recording, ColumnOut, StoredAs};
+use imunoise::io::StoredAs;
 use imunoise::model::{CoefUnit, Coefficients, Sensor};
 use imunoise::sim::{simulate, ChannelSpec, SimSpec, SinusoidSpec, StepSpec};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
@@ -67,18 +67,8 @@ fn write_unit_seeded(
         temperature: None,
     };
     let sim = simulate(&spec).unwrap();
-    let cols: Vec<ColumnOut<'_>> = sim
-        .channels
-        .iter()
-        .map(|c| ColumnOut {
-            name: &c.name,
-            unit: c.unit,
-            kind: c.kind,
-            samples: &c.samples,
-        })
-        .collect();
     let path = dir.join(format!("imu{i:02}.arrow"));
-    write_recording(&path, FS, &cols, StoredAs::F64).unwrap();
+    sim.write(&path, StoredAs::F64).unwrap();
     path
 }
 

@@ -210,7 +210,7 @@ pub fn find_spikes_on_grid(y: &[f64], rate_hz: f64, grid: f64) -> Spikes {
     // prescreened samples also give the tail's shape about t (see [`TailShape`]).
     let blocks: Vec<BlockFindings> = (0..n.div_ceil(PRESCREEN_BLOCK))
         .into_par_iter()
-        .map_init(Prescreen::default, |buffers, b| {
+        .map_init(Prescreen::new, |buffers, b| {
             let range = b * PRESCREEN_BLOCK..((b + 1) * PRESCREEN_BLOCK).min(n);
             let mut bands = [0usize; 2];
             let mut found = Vec::new();
@@ -537,14 +537,6 @@ fn linear_prescreen<'b>(
         beyond,
         out,
     } = buffers;
-    if p2.is_empty() {
-        (*p2, *p4, *p8) = (
-            vec![0.0; BLOCK + 13],
-            vec![0.0; BLOCK + 11],
-            vec![0.0; BLOCK + 7],
-        );
-        (*excess, *beyond) = (vec![0.0; BLOCK], vec![0u32; BLOCK]);
-    }
     out.clear();
     let scaled_limit = (WIDTH - 1) as f64 * limit;
     // |y_i − (sum − y_i)/14| > limit, multiplied through by 14 (no division per sample).
@@ -608,7 +600,6 @@ const PRESCREEN_SUMS: usize = 2048;
 
 /// [`linear_prescreen`]'s working buffers (and its output), made once per parallel task instead of
 /// once per 65 536-sample block.
-#[derive(Default)]
 struct Prescreen {
     p2: Vec<f64>,
     p4: Vec<f64>,
@@ -616,6 +607,21 @@ struct Prescreen {
     excess: Vec<f64>,
     beyond: Vec<u32>,
     out: Vec<(usize, f64)>,
+}
+
+impl Prescreen {
+    /// Pairwise sums of 2, 4 and 8 samples over a block and the window overhang (14 samples),
+    /// the block's excesses and the positions beyond the limit.
+    fn new() -> Prescreen {
+        Prescreen {
+            p2: vec![0.0; PRESCREEN_SUMS + 13],
+            p4: vec![0.0; PRESCREEN_SUMS + 11],
+            p8: vec![0.0; PRESCREEN_SUMS + 7],
+            excess: vec![0.0; PRESCREEN_SUMS],
+            beyond: vec![0; PRESCREEN_SUMS],
+            out: Vec::new(),
+        }
+    }
 }
 
 /// Replaces each spike by a draw from its distribution given its clean neighbours (see
@@ -1003,7 +1009,7 @@ mod tests {
     fn prescreen_matches_the_linear_residual_sample_by_sample() {
         let mut rng = crate::sim::rng::Rng::new(17);
         // One set of buffers for every call: what a call leaves in them must not leak into the next.
-        let mut buffers = Prescreen::default();
+        let mut buffers = Prescreen::new();
         for offset in [0.0, 1e6] {
             let y: Vec<f64> = rng.gauss_vec(9_000).iter().map(|v| offset + v).collect();
             // Rounding of the sums: |residual| error up to ~1e-15 of the window sum.
