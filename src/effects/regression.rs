@@ -493,8 +493,9 @@ pub fn white_noise_variance(x: &[f64]) -> f64 {
 
 /// A function tabulated on a log-spaced grid, linearly interpolated in log f (clamped outside).
 struct LogTable {
-    ln_lo: f64,
     step: f64,
+    /// The grid's frequencies, f_j = exp(ln_lo + j·step).
+    freqs: Vec<f64>,
     values: Vec<f64>,
 }
 
@@ -503,22 +504,73 @@ impl LogTable {
         let (ln_lo, ln_hi) = (lo.max(f64::MIN_POSITIVE).ln(), hi.max(lo).ln());
         let step = std::f64::consts::LN_10 / per_decade;
         let n = ((ln_hi - ln_lo) / step).ceil().max(1.0) as usize + 1;
-        let values = (0..n).map(|i| g((ln_lo + i as f64 * step).exp())).collect();
+        let freqs: Vec<f64> = (0..n).map(|i| (ln_lo + i as f64 * step).exp()).collect();
+        let values = freqs.iter().map(|&f| g(f)).collect();
         LogTable {
-            ln_lo,
             step,
+            freqs,
             values,
         }
     }
 
-    fn at(&self, f: f64) -> f64 {
-        let t = ((f.ln() - self.ln_lo) / self.step).max(0.0);
-        // `as` truncates, which for t ≥ 0 is the floor (without a call to libm's floor, which
-        // the baseline x86-64 target makes: a tenth of this lookup's time).
-        let i = (t as usize).min(self.values.len() - 1);
-        let j = (i + 1).min(self.values.len() - 1);
-        let w = (t - i as f64).min(1.0);
-        self.values[i] * (1.0 - w) + self.values[j] * w
+    /// A reader of the table at ascending frequencies.
+    fn ascending(&self) -> Ascending<'_> {
+        let mut reader = Ascending {
+            table: self,
+            inv_step: 1.0 / self.step,
+            j: 0,
+            next: 0.0,
+            inv_f: 0.0,
+            value: 0.0,
+            slope: 0.0,
+        };
+        reader.enter(0);
+        reader
+    }
+}
+
+/// Reads a [`LogTable`] at frequencies that never decrease, finding each one's interval by
+/// walking on from the last one's instead of by a logarithm: the alias sums read the table at
+/// ~2·10⁶ points a call, and a logarithm at each was two thirds of their time. The interpolation
+/// weight, ln(f/f_j)/step, comes from the series x − x²/2 + x³/3 of ln(1 + x), x = f/f_j − 1 <
+/// e^step − 1 (1.1e-3 at 2048 points a decade): its error, below x⁴/4 = 4e-13, is 4e-10 of an
+/// interval.
+struct Ascending<'a> {
+    table: &'a LogTable,
+    inv_step: f64,
+    /// The current interval [f_j, next): its start's reciprocal, value and rise to the next.
+    j: usize,
+    next: f64,
+    inv_f: f64,
+    value: f64,
+    slope: f64,
+}
+
+impl Ascending<'_> {
+    /// Makes interval j current (the last point: the constant beyond the table).
+    fn enter(&mut self, j: usize) {
+        let (freqs, values) = (&self.table.freqs, &self.table.values);
+        self.j = j;
+        self.value = values[j];
+        if j + 1 < values.len() {
+            self.next = freqs[j + 1];
+            self.inv_f = 1.0 / freqs[j];
+            self.slope = values[j + 1] - values[j];
+        } else {
+            self.next = f64::INFINITY;
+            self.inv_f = 0.0;
+            self.slope = 0.0;
+        }
+    }
+
+    fn at(&mut self, f: f64) -> f64 {
+        while f >= self.next {
+            self.enter(self.j + 1);
+        }
+        // Below the first point x < 0 and the weight clamps to 0: the first value.
+        let x = f * self.inv_f - 1.0;
+        let w = (x * (1.0 - x * (0.5 - x * (1.0 / 3.0))) * self.inv_step).clamp(0.0, 1.0);
+        self.value + self.slope * w
     }
 }
 
@@ -566,6 +618,10 @@ pub fn increment_autocovariance(
 
 /// [`increment_autocovariance`] from its tabulated density: the aliases folded onto the block
 /// band, then the cosine sums.
+///
+/// Every alias of every bin lies on one grid, a_k = (k + ½)·du (with 1 = 2·bins·du, bin i's
+/// aliases n + u_i and n + 1 − u_i are the k ≡ i and k ≡ 2·bins − 1 − i modulo 2·bins), so the
+/// table is read once along that grid in ascending order and each reading added to its residue.
 fn fold_and_sum(
     table: &LogTable,
     fb: f64,
@@ -576,25 +632,34 @@ fn fold_and_sum(
 ) -> Vec<f64> {
     use std::f64::consts::PI;
     let half_band = block as f64 / 2.0;
+    let period = 2 * bins;
+    // The grid's points with a_k ≤ block/2 and n = k div period ≤ MAX_ALIASES.
+    let cap = (MAX_ALIASES + 1) * period;
+    let within = |k: usize| (k as f64 + 0.5) * du <= half_band;
+    let mut count = ((half_band / du - 0.5).floor().max(0.0) as usize).min(cap);
+    while count > 0 && !within(count - 1) {
+        count -= 1;
+    }
+    while count < cap && within(count) {
+        count += 1;
+    }
+    let mut by_residue = vec![0.0; period];
+    let mut reader = table.ascending();
+    for first in (0..count).step_by(period) {
+        let len = period.min(count - first);
+        for (r, sum) in by_residue[..len].iter_mut().enumerate() {
+            *sum += reader.at(((first + r) as f64 + 0.5) * du * fb);
+        }
+    }
     let folded: Vec<f64> = (0..bins)
         .map(|i| {
             let u = (i as f64 + 0.5) * du;
-            let mut p = 0.0;
-            for n in 0..=MAX_ALIASES {
-                for a in [n as f64 + u, n as f64 + 1.0 - u] {
-                    if a <= half_band {
-                        p += table.at(a * fb);
-                    }
-                }
-                if n as f64 > half_band {
-                    break;
-                }
-            }
+            let p = by_residue[i] + by_residue[period - 1 - i];
             let s2 = (PI * u).sin().powi(2);
             fb * p * s2 * 4.0 * s2 * du
         })
         .collect();
-    cosine_sums(&folded, du, m)
+    cosine_sums(&folded, m)
 }
 
 /// What [`increment_autocovariance`]'s result depends on, bit for bit: the rate, the block, the
@@ -618,26 +683,33 @@ struct CovarianceKey {
 /// for the calls of 16 channels in flight at once in between.
 static COVARIANCES: Memo<CovarianceKey, Vec<f64>> = Memo::new(32);
 
-/// `Σ_i p_i·cos(2π·(i + ½)·du·k)` for k in 0..m. The cosines of each k come from a rotation
-/// recurrence (two multiply-adds per term instead of a cosine), restarted from exact values every
-/// [`RESEED`] terms so that rounding cannot build up (relative error below 1e-13 against the
-/// direct sum; see the test).
-fn cosine_sums(p: &[f64], du: f64, m: usize) -> Vec<f64> {
+/// `Σ_i p_i·cos(π·k·(2i + 1)/(2N))` for k in 0..m (N = `p.len()` ≥ m): the first m terms of
+/// p's DCT-II, from one real FFT of length 2N of p followed by its mirror image (V_k =
+/// 2·e^{iπk/(2N)}·X_k), O(N log N) instead of the O(m·N) of summing the cosines lag by lag (a
+/// third of the covariance's time at m = 512). Agrees with the direct sums to 1e-13 of Σ|p_i|
+/// (see the test).
+fn cosine_sums(p: &[f64], m: usize) -> Vec<f64> {
+    use std::cell::RefCell;
     use std::f64::consts::PI;
-    const RESEED: usize = 256;
-    (0..m)
-        .map(|k| {
-            let step = 2.0 * PI * du * k as f64;
-            let (sin_step, cos_step) = step.sin_cos();
-            let mut total = 0.0;
-            for (start, chunk) in p.chunks(RESEED).enumerate().map(|(c, x)| (c * RESEED, x)) {
-                let (mut s, mut c) = ((start as f64 + 0.5) * step).sin_cos();
-                for &v in chunk {
-                    total += v * c;
-                    (c, s) = (c * cos_step - s * sin_step, s * cos_step + c * sin_step);
-                }
-            }
-            total
+    thread_local! {
+        static PLANNER: RefCell<realfft::RealFftPlanner<f64>> =
+            RefCell::new(realfft::RealFftPlanner::new());
+    }
+    let n = p.len();
+    assert!(m <= n, "{m} lags from {n} terms");
+    let fft = PLANNER.with(|planner| planner.borrow_mut().plan_fft_forward(2 * n));
+    let mut mirrored = Vec::with_capacity(2 * n);
+    mirrored.extend_from_slice(p);
+    mirrored.extend(p.iter().rev());
+    let mut spectrum = fft.make_output_vec();
+    fft.process(&mut mirrored, &mut spectrum)
+        .expect("the buffers are the plan's sizes");
+    spectrum[..m]
+        .iter()
+        .enumerate()
+        .map(|(k, v)| {
+            let (sin, cos) = (PI * k as f64 / (2 * n) as f64).sin_cos();
+            0.5 * (v.re * cos + v.im * sin)
         })
         .collect()
 }
@@ -761,7 +833,7 @@ mod tests {
                     fb * p * 4.0 * (PI * u).sin().powi(2) * du
                 })
                 .collect();
-            cosine_sums(&folded, du, m)
+            cosine_sums(&folded, m)
         }
         let fs = 100.0;
         let resonance = |f: f64| {
@@ -790,7 +862,7 @@ mod tests {
         }
     }
 
-    /// The recurrence agrees with cosines evaluated one by one, at the largest size used (8·512
+    /// The transform agrees with cosines evaluated one by one, at the largest size used (8·512
     /// terms, lags to 512), for a spectrum spanning many decades as a random walk's does.
     #[test]
     fn cosine_sums_match_the_direct_sum() {
@@ -801,7 +873,7 @@ mod tests {
         let p: Vec<f64> = (0..bins)
             .map(|i| rng.uniform() / (1.0 + i as f64).powi(2))
             .collect();
-        let fast = cosine_sums(&p, du, m);
+        let fast = cosine_sums(&p, m);
         let scale: f64 = p.iter().map(|v| v.abs()).sum();
         for (k, got) in fast.iter().enumerate() {
             let want: f64 = p

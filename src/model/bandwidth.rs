@@ -81,6 +81,11 @@ fn narrow_excess(p: &Problem, i: usize) -> bool {
 const ORDERS: [u32; 7] = [1, 2, 3, 4, 5, 6, 8];
 /// Corners per decade of the first, coarse scan (see [`detect_bandwidth`]).
 const COARSE_PER_DECADE: f64 = 8.0;
+/// Relative change of the coefficients at which the coarse and the 24-per-decade scans take a
+/// trial's fit as settled: they only rank trials whose scores differ by whole units, which a
+/// fit settled to a thousandth moves by far less; the refinement and the detection's ΔBIC use
+/// fits settled to 1e-6 as every reported fit does.
+const RANKING_TOLERANCE: f64 = 1e-3;
 /// Factor beyond which [`LowPass::white_avar_kept`] extrapolates the bias as 1/m instead of
 /// integrating (the integral's cost grows with m; the bias of a low-pass whose corner is well
 /// inside the band falls as 1/m once m/fs is many filter time constants).
@@ -108,21 +113,29 @@ pub struct LowPass {
 }
 
 impl LowPass {
-    /// f/f_c on the filter's own frequency axis (tan-warped for the digital form).
-    fn ratio(&self, f_hz: f64) -> f64 {
-        match self.form {
-            FilterForm::Analog => (f_hz / self.corner_hz).abs(),
+    /// f on the filter's own frequency axis: |f| for the analog form, tan(π·|f|/fs) (f at most
+    /// Nyquist) for the digital one.
+    fn on_axis(form: FilterForm, f_hz: f64) -> f64 {
+        match form {
+            FilterForm::Analog => f_hz.abs(),
             FilterForm::Digital { rate_hz } => {
-                let w =
-                    |f: f64| (std::f64::consts::PI * f.abs().min(rate_hz / 2.0) / rate_hz).tan();
-                w(f_hz) / w(self.corner_hz)
+                (std::f64::consts::PI * f_hz.abs().min(rate_hz / 2.0) / rate_hz).tan()
             }
         }
     }
 
+    /// f/f_c on the filter's own frequency axis (tan-warped for the digital form).
+    fn ratio(&self, f_hz: f64) -> f64 {
+        Self::on_axis(self.form, f_hz) / Self::on_axis(self.form, self.corner_hz)
+    }
+
     /// |H(f)|².
     pub fn power_gain(&self, f_hz: f64) -> f64 {
-        let r = self.ratio(f_hz);
+        self.gain_at_ratio(self.ratio(f_hz))
+    }
+
+    /// |H|² at `r` = f/f_c on the filter's axis.
+    fn gain_at_ratio(&self, r: f64) -> f64 {
         if r.is_finite() {
             1.0 / (1.0 + r.powi(2 * self.order as i32))
         } else {
@@ -266,7 +279,12 @@ impl Bandwidth {
 
 /// −2·log-likelihood of the IRLS fit of `mask` on `problem` (∞ if it fails).
 fn neg2ll(problem: &Problem, mask: Mask) -> f64 {
-    let fit = problem.irls(mask);
+    neg2ll_within(problem, mask, 1e-6)
+}
+
+/// [`neg2ll`] with the fit settled to `tolerance` ([`Problem::irls_within`]).
+fn neg2ll_within(problem: &Problem, mask: Mask, tolerance: f64) -> f64 {
+    let fit = problem.irls_within(mask, tolerance);
     if members(mask).iter().all(|&j| fit.c[j] <= 0.0) {
         return f64::INFINITY;
     }
@@ -326,6 +344,7 @@ pub fn detect_bandwidth(
     // roll-off of a second-order filter at 40 Hz read as a first-order one at 25 Hz, and the fit
     // band end at 3.6 Hz.
     let floor_penalty = (plain.len() as f64).ln();
+    let forms = [FilterForm::Analog, FilterForm::Digital { rate_hz: fs }];
     // The floor's column is the unfiltered white basis, the same for every response: set once (in
     // the effect column, with white noise's EDF) on the problem the trials copy.
     let white = Term::RandomWalk.index();
@@ -334,10 +353,26 @@ pub fn detect_bandwidth(
         b[EFFECT] = b[white];
         edf[EFFECT] = edf[white];
     }
+    // Every sample's place on both forms' axes, computed once for the hundreds of trials (the
+    // digital form's tangent at each sample of each trial was a sixth of the detection's time).
+    let axes: Vec<Vec<[f64; 2]>> = samples
+        .iter()
+        .map(|band| {
+            band.iter()
+                .map(|&(f, _)| forms.map(|form| LowPass::on_axis(form, f)))
+                .collect()
+        })
+        .collect();
     // `base` (the unfiltered or floored problem) with the response's filtered base terms.
     let filtered = |base: &Problem, lp: &LowPass| -> Problem {
+        let form = forms
+            .iter()
+            .position(|&f| f == lp.form)
+            .expect("every trial has one of the forms");
+        let corner = LowPass::on_axis(lp.form, lp.corner_hz);
+        let gain = |band: usize, k: usize| lp.gain_at_ratio(axes[band][k][form] / corner);
         let mut p = base.clone();
-        for (b, f) in p.basis.iter_mut().zip(filtered_basis(&samples, lp)) {
+        for (b, f) in p.basis.iter_mut().zip(filtered_basis(&samples, gain)) {
             b[..BASE].copy_from_slice(&f[..BASE]);
         }
         p
@@ -345,12 +380,12 @@ pub fn detect_bandwidth(
     let with_floor = |lp: &LowPass| filtered(&floored, lp);
     // One fit per trial with the floor allowed: the non-negative fit leaves it at 0 where it
     // does not help, and only a floor in use is charged.
-    let try_filter = |lp: LowPass, floor: bool| -> f64 {
+    let try_filter = |lp: LowPass, floor: bool, tolerance: f64| -> f64 {
         if !floor {
-            return neg2ll(&filtered(&plain, &lp), mask);
+            return neg2ll_within(&filtered(&plain, &lp), mask, tolerance);
         }
         let p = with_floor(&lp);
-        let fit = p.irls(mask | (1 << EFFECT));
+        let fit = p.irls_within(mask | (1 << EFFECT), tolerance);
         if members(mask).iter().all(|&j| fit.c[j] <= 0.0) {
             return f64::INFINITY;
         }
@@ -378,8 +413,15 @@ pub fn detect_bandwidth(
     // Every trial is independent: they are scored in parallel (the channel's other cores are idle
     // when a file has fewer channels than cores, or at the end of a file) and the first best in
     // the sequential order is taken, as a sequential scan would.
-    let first_best = |trials: Vec<LowPass>, start: (f64, LowPass), floor: bool| -> (f64, LowPass) {
-        let scores: Vec<f64> = trials.par_iter().map(|&lp| try_filter(lp, floor)).collect();
+    let first_best = |trials: Vec<LowPass>,
+                      start: (f64, LowPass),
+                      floor: bool,
+                      tolerance: f64|
+     -> (f64, LowPass) {
+        let scores: Vec<f64> = trials
+            .par_iter()
+            .map(|&lp| try_filter(lp, floor, tolerance))
+            .collect();
         trials.into_iter().zip(scores).fold(
             start,
             |best, (lp, ll)| if ll < best.0 { (ll, lp) } else { best },
@@ -391,7 +433,6 @@ pub fn detect_bandwidth(
     // by a few per cent between corners a third of a decade apart), so the coarse pass finds the
     // basin at a third of the trials of a 24-per-decade scan of the whole band, which was a
     // tenth of the model stage on 10⁷-sample records.
-    let forms = [FilterForm::Analog, FilterForm::Digital { rate_hz: fs }];
     let trials_between = |per_decade: f64, lo: f64, hi: f64| -> Vec<LowPass> {
         let mut trials = Vec::new();
         for form in forms {
@@ -428,12 +469,20 @@ pub fn detect_bandwidth(
             trials_between(COARSE_PER_DECADE, f_lo, f_hi),
             (f64::INFINITY, unfiltered),
             floor,
+            RANKING_TOLERANCE,
         );
         let best = if best.0.is_finite() {
             let step = 10f64.powf(1.0 / COARSE_PER_DECADE);
             let lo = (best.1.corner_hz / step).max(f_lo);
             let hi = (best.1.corner_hz * step).min(f_hi);
-            first_best(trials_between(24.0, lo, hi), best, floor)
+            first_best(trials_between(24.0, lo, hi), best, floor, RANKING_TOLERANCE)
+        } else {
+            best
+        };
+        // The refinement's scores are the fits' own (settled to 1e-6), the start's too: the
+        // detection's ΔBIC is taken from them.
+        let best = if best.0.is_finite() {
+            (try_filter(best.1, floor, 1e-6), best.1)
         } else {
             best
         };
@@ -450,7 +499,7 @@ pub fn detect_bandwidth(
                 !(matches!(lp.form, FilterForm::Digital { .. }) && lp.corner_hz >= 0.5 * fs)
             })
             .collect();
-        first_best(refine, best, floor)
+        first_best(refine, best, floor, 1e-6)
     };
     // The attenuation (dB) the model shows at the top band: with a floor, the filtered terms plus
     // the floor against the same terms unfiltered plus the floor (a floor near the white level

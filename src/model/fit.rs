@@ -275,6 +275,13 @@ impl Problem {
     /// until the coefficients settle (relative change < 1e-6, a thousandth of the narrowest
     /// interval the fits report), at most 100 steps.
     pub fn irls(&self, mask: Mask) -> SubsetFit {
+        self.irls_within(mask, 1e-6)
+    }
+
+    /// [`Problem::irls`] until the coefficients' relative change is below `tolerance`: a search
+    /// that only ranks many trial problems by their likelihood settles for less than the fit it
+    /// reports.
+    pub fn irls_within(&self, mask: Mask, tolerance: f64) -> SubsetFit {
         let mut w = self.initial_weights();
         let mut c = [0.0; TERMS];
         for _ in 0..100 {
@@ -282,7 +289,7 @@ impl Problem {
             let settled = next
                 .iter()
                 .zip(&c)
-                .all(|(a, b)| (a - b).abs() <= 1e-6 * a.abs().max(b.abs()));
+                .all(|(a, b)| (a - b).abs() <= tolerance * a.abs().max(b.abs()));
             c = next;
             let mu = self.model(&c);
             w = self.weights(&c, &mu);

@@ -27,7 +27,6 @@ use crate::memo::Memo;
 use crate::psd::{BinnedPsd, Psd, Scaling, Window};
 
 use super::band_correlation::band_correlation;
-use super::bandwidth::LowPass;
 use super::correlation::Correlation;
 use super::fit::{Problem, BASE, EFFECT, TERMS};
 use super::result::Domain;
@@ -205,16 +204,21 @@ pub(crate) fn spectrum_problem(
 }
 
 /// The base terms' basis of `samples` with every column but quantisation's multiplied by the
-/// filter's power gain |H(f)|²: the sensor's filter acts on the rate before the output is rounded
-/// to its quantisation step. The effect column is 0.
-pub(crate) fn filtered_basis(samples: &BandSamples, response: &LowPass) -> Vec<[f64; TERMS]> {
+/// filter's power gain |H(f)|² (`gain(band, k)`: at sample k of the band): the sensor's filter
+/// acts on the rate before the output is rounded to its quantisation step. The effect column is
+/// 0.
+pub(crate) fn filtered_basis(
+    samples: &BandSamples,
+    gain: impl Fn(usize, usize) -> f64,
+) -> Vec<[f64; TERMS]> {
     let q = Term::Quantization.index();
     samples
         .iter()
-        .map(|band| {
+        .enumerate()
+        .map(|(b, band)| {
             let mut out = [0.0; TERMS];
-            for (f, v) in band {
-                let g = response.power_gain(*f);
+            for (k, (_, v)) in band.iter().enumerate() {
+                let g = gain(b, k);
                 for j in 0..BASE {
                     out[j] += if j == q { v[j] } else { g * v[j] };
                 }
