@@ -47,7 +47,7 @@ use serde::Serialize;
 
 use crate::psd::{BinnedPsd, Psd};
 
-use super::fit::{members, Mask, Problem};
+use super::fit::{members, Mask, Problem, SubsetFit};
 use super::psd_fit::{filtered_basis, spectrum_problem, spectrum_terms, BandSamples};
 use super::select::rank_subsets;
 use super::terms::{BASE, EFFECT, TERMS};
@@ -279,12 +279,29 @@ impl Bandwidth {
 
 /// −2·log-likelihood of the IRLS fit of `mask` on `problem` (∞ if it fails).
 fn neg2ll(problem: &Problem, mask: Mask) -> f64 {
-    neg2ll_within(problem, mask, 1e-6)
+    neg2ll_settled(problem, mask, Settle::Report)
 }
 
-/// [`neg2ll`] with the fit settled to `tolerance` ([`Problem::irls_within`]).
-fn neg2ll_within(problem: &Problem, mask: Mask, tolerance: f64) -> f64 {
-    let fit = problem.irls_within(mask, tolerance);
+/// How far a trial's fit is iterated: as every reported fit ([`Problem::irls`]), or only as
+/// far as ranking trials needs ([`Problem::irls_accelerated`] to [`RANKING_TOLERANCE`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Settle {
+    Report,
+    Rank,
+}
+
+impl Settle {
+    fn fit(self, problem: &Problem, mask: Mask) -> SubsetFit {
+        match self {
+            Settle::Report => problem.irls(mask),
+            Settle::Rank => problem.irls_accelerated(mask, RANKING_TOLERANCE),
+        }
+    }
+}
+
+/// [`neg2ll`] with the fit settled as `settle` says.
+fn neg2ll_settled(problem: &Problem, mask: Mask, settle: Settle) -> f64 {
+    let fit = settle.fit(problem, mask);
     if members(mask).iter().all(|&j| fit.c[j] <= 0.0) {
         return f64::INFINITY;
     }
@@ -380,12 +397,12 @@ pub fn detect_bandwidth(
     let with_floor = |lp: &LowPass| filtered(&floored, lp);
     // One fit per trial with the floor allowed: the non-negative fit leaves it at 0 where it
     // does not help, and only a floor in use is charged.
-    let try_filter = |lp: LowPass, floor: bool, tolerance: f64| -> f64 {
+    let try_filter = |lp: LowPass, floor: bool, settle: Settle| -> f64 {
         if !floor {
-            return neg2ll_within(&filtered(&plain, &lp), mask, tolerance);
+            return neg2ll_settled(&filtered(&plain, &lp), mask, settle);
         }
         let p = with_floor(&lp);
-        let fit = p.irls_within(mask | (1 << EFFECT), tolerance);
+        let fit = settle.fit(&p, mask | (1 << EFFECT));
         if members(mask).iter().all(|&j| fit.c[j] <= 0.0) {
             return f64::INFINITY;
         }
@@ -416,11 +433,11 @@ pub fn detect_bandwidth(
     let first_best = |trials: Vec<LowPass>,
                       start: (f64, LowPass),
                       floor: bool,
-                      tolerance: f64|
+                      settle: Settle|
      -> (f64, LowPass) {
         let scores: Vec<f64> = trials
             .par_iter()
-            .map(|&lp| try_filter(lp, floor, tolerance))
+            .map(|&lp| try_filter(lp, floor, settle))
             .collect();
         trials.into_iter().zip(scores).fold(
             start,
@@ -469,20 +486,20 @@ pub fn detect_bandwidth(
             trials_between(COARSE_PER_DECADE, f_lo, f_hi),
             (f64::INFINITY, unfiltered),
             floor,
-            RANKING_TOLERANCE,
+            Settle::Rank,
         );
         let best = if best.0.is_finite() {
             let step = 10f64.powf(1.0 / COARSE_PER_DECADE);
             let lo = (best.1.corner_hz / step).max(f_lo);
             let hi = (best.1.corner_hz * step).min(f_hi);
-            first_best(trials_between(24.0, lo, hi), best, floor, RANKING_TOLERANCE)
+            first_best(trials_between(24.0, lo, hi), best, floor, Settle::Rank)
         } else {
             best
         };
         // The refinement's scores are the fits' own (settled to 1e-6), the start's too: the
         // detection's ΔBIC is taken from them.
         let best = if best.0.is_finite() {
-            (try_filter(best.1, floor, 1e-6), best.1)
+            (try_filter(best.1, floor, Settle::Report), best.1)
         } else {
             best
         };
@@ -499,7 +516,7 @@ pub fn detect_bandwidth(
                 !(matches!(lp.form, FilterForm::Digital { .. }) && lp.corner_hz >= 0.5 * fs)
             })
             .collect();
-        first_best(refine, best, floor, 1e-6)
+        first_best(refine, best, floor, Settle::Report)
     };
     // The attenuation (dB) the model shows at the top band: with a floor, the filtered terms plus
     // the floor against the same terms unfiltered plus the floor (a floor near the white level

@@ -282,14 +282,52 @@ impl Problem {
     /// that only ranks many trial problems by their likelihood settles for less than the fit it
     /// reports.
     pub fn irls_within(&self, mask: Mask, tolerance: f64) -> SubsetFit {
+        self.reweighted(mask, tolerance, false)
+    }
+
+    /// [`Problem::irls_within`], extrapolating where the steps shrink geometrically: after three
+    /// steps whose changes keep one ratio r (0 < r < 0.9, measured on each coefficient relative
+    /// to itself), the iteration jumps by the rest of the geometric series, r/(1 − r) times the
+    /// last change (negative coefficients clipped to 0), and goes on from there (Aitken's Δ²
+    /// for a vector). Only the point it starts from changes, not the fixed point it stops at, but
+    /// the stop (two steps within the tolerance) comes at another iterate: for searches that only
+    /// rank trials. A trial filter whose white noise gives way to the floor halved the white
+    /// coefficient at every step for 20–40 steps.
+    pub fn irls_accelerated(&self, mask: Mask, tolerance: f64) -> SubsetFit {
+        self.reweighted(mask, tolerance, true)
+    }
+
+    fn reweighted(&self, mask: Mask, tolerance: f64, accelerate: bool) -> SubsetFit {
         let mut w = self.initial_weights();
         let mut c = [0.0; TERMS];
+        let mut last_change: Option<[f64; TERMS]> = None;
         for _ in 0..100 {
-            let next = self.solve(mask, &w);
+            let mut next = self.solve(mask, &w);
             let settled = next
                 .iter()
                 .zip(&c)
                 .all(|(a, b)| (a - b).abs() <= tolerance * a.abs().max(b.abs()));
+            if accelerate && !settled {
+                let change: [f64; TERMS] = std::array::from_fn(|j| next[j] - c[j]);
+                if let Some(before) = last_change.replace(change) {
+                    let (mut num, mut den) = (0.0, 0.0);
+                    for j in 0..TERMS {
+                        let scale = next[j].abs().max(c[j].abs());
+                        if scale > 0.0 {
+                            num += change[j] * before[j] / (scale * scale);
+                            den += before[j] * before[j] / (scale * scale);
+                        }
+                    }
+                    let r = num / den;
+                    if den > 0.0 && r > 0.0 && r < 0.9 {
+                        let jump = r / (1.0 - r);
+                        for j in 0..TERMS {
+                            next[j] = (next[j] + jump * change[j]).max(0.0);
+                        }
+                        last_change = None;
+                    }
+                }
+            }
             c = next;
             let mu = self.model(&c);
             w = self.weights(&c, &mu);
