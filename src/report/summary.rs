@@ -440,9 +440,13 @@ pub fn effect_line(e: &Effect, units: &EffectUnits) -> String {
             v.interval(s.amplitude, s.amplitude_lo, s.amplitude_hi)
         ),
         Effect::Narrowband(nb) => format!(
-            "narrow band (a wandering line or a peak) at {:.4} Hz, width {} Hz, rms {} (power {}; a coherent sinusoid explains {:.0} %)",
+            "narrow band (a wandering line or a peak) at {:.4} Hz [{:.4}, {:.4}], width {} Hz [{}, {}], rms {} (power {}; a coherent sinusoid explains {:.0} %)",
             nb.freq_hz,
+            nb.freq_lo_hz,
+            nb.freq_hi_hz,
             sig4(nb.width_hz),
+            sig4(nb.width_lo_hz),
+            sig4(nb.width_hi_hz),
             v.interval(nb.power.sqrt(), nb.power_lo.sqrt(), nb.power_hi.sqrt()),
             Shown::squared(units.value).one(nb.power),
             100.0 * nb.coherent_share

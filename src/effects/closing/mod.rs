@@ -1166,9 +1166,20 @@ const PEAK_MIN_RATIO: f64 = 2.0;
 fn merge_narrowband(into: &mut NarrowBand, more: &NarrowBand) {
     let total = into.power + more.power;
     if total > 0.0 {
-        into.freq_hz = (into.freq_hz * into.power + more.freq_hz * more.power) / total;
+        // The centre's interval: the weighted mean's, each pass's half-widths weighted alike and
+        // added in quadrature (the passes cover different bins).
+        let (a, b) = (into.power / total, more.power / total);
+        let half = |n: &NarrowBand| (n.freq_hi_hz - n.freq_lo_hz) / 2.0;
+        let half = (a * a * half(into).powi(2) + b * b * half(more).powi(2)).sqrt();
+        into.freq_hz = a * into.freq_hz + b * more.freq_hz;
+        into.freq_lo_hz = into.freq_hz - half;
+        into.freq_hi_hz = into.freq_hz + half;
     }
-    into.width_hz = into.width_hz.max(more.width_hz);
+    if more.width_hz > into.width_hz {
+        into.width_hz = more.width_hz;
+        into.width_lo_hz = more.width_lo_hz;
+        into.width_hi_hz = more.width_hi_hz;
+    }
     into.f_lo_hz = into.f_lo_hz.min(more.f_lo_hz);
     into.f_hi_hz = into.f_hi_hz.max(more.f_hi_hz);
     into.power = total;

@@ -22,7 +22,7 @@
 
 use realfft::RealFftPlanner;
 
-use crate::psd::Psd;
+use crate::psd::{neighbour_redundancy, Psd};
 
 /// Allowance for the correlation of neighbouring Hann-window bins (variance of sums, and the
 /// likelihood-ratio statistic).
@@ -33,10 +33,15 @@ const GUARD_BINS: f64 = 2.0;
 /// A narrowband excess: centre, width, power with its interval, and the evidence.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct NarrowBand {
-    /// Power-weighted centre of the excess, Hz.
+    /// Power-weighted centre of the excess, Hz, and its interval.
     pub freq_hz: f64,
-    /// Twice the rms spread of the excess about its centre (the window's spread taken out), Hz.
+    pub freq_lo_hz: f64,
+    pub freq_hi_hz: f64,
+    /// Twice the rms spread of the excess about its centre (the window's spread taken out), Hz,
+    /// and its interval.
     pub width_hz: f64,
+    pub width_lo_hz: f64,
+    pub width_hi_hz: f64,
     /// The band treated, Hz.
     pub f_lo_hz: f64,
     pub f_hi_hz: f64,
@@ -99,16 +104,43 @@ pub fn measure_narrowband(
         return None;
     }
     let centre = f_sum / w_sum;
+    let second = f2_sum / w_sum - centre * centre;
+    // The centre's and the spread's variances by the delta method: each bin's excess varies as
+    // its power does (2p²/ν), times the window's [`neighbour_redundancy`] for the correlation of
+    // neighbouring bins (with the power's allowance of 1.5 instead, the centre's 1σ interval
+    // covered the truth in 60.5 % of 200 seeds, its errors 1.14 of its half-widths rms);
+    // ∂centre/∂w_k = (f_k − c)/W and ∂spread²/∂w_k = ((f_k − c)² − spread²)/W (the centre's own
+    // move drops out of the latter, Σ w_k·(f_k − c) being 0). Bins at or below the model add no
+    // excess and move neither.
+    let (mut var_centre, mut var_second) = (0.0, 0.0);
+    for &k in &bins {
+        let (p, f) = (psd.value[k], psd.freq_hz[k]);
+        if p <= model_one_sided(f) {
+            continue;
+        }
+        let v = 2.0 * p * p / psd.dof[k].max(1.0);
+        let d = f - centre;
+        var_centre += d * d * v;
+        var_second += (d * d - second).powi(2) * v;
+    }
+    let redundancy = neighbour_redundancy(psd);
+    let sd_centre = (redundancy * var_centre).sqrt() / w_sum;
+    let sd_second = (redundancy * var_second).sqrt() / w_sum;
     // The continuous rate's line, as the sinusoid fit reports it: each sample is its interval's
     // mean, which scales a line's power by sinc²(πf/fs).
     let x = std::f64::consts::PI * centre / psd.rate_hz;
     let sinc2 = if x > 0.0 { (x.sin() / x).powi(2) } else { 1.0 };
     let (power, var) = (power / sinc2, var / (sinc2 * sinc2));
     let sd = (BIN_CORRELATION * var).sqrt();
-    let spread2 = (f2_sum / w_sum - centre * centre - df * df / 3.0).max(0.0);
+    let spread2 = second - df * df / 3.0;
+    let width = |s2: f64| 2.0 * s2.max(0.0).sqrt();
     Some(NarrowBand {
         freq_hz: centre,
-        width_hz: 2.0 * spread2.sqrt(),
+        freq_lo_hz: centre - z * sd_centre,
+        freq_hi_hz: centre + z * sd_centre,
+        width_hz: width(spread2),
+        width_lo_hz: width(spread2 - z * sd_second),
+        width_hi_hz: width(spread2 + z * sd_second),
         f_lo_hz: lo,
         f_hi_hz: hi,
         power,
@@ -222,6 +254,70 @@ mod tests {
         };
         let removed = var(&y) - var(&clean);
         assert!((removed / truth - 1.0).abs() < 0.1, "removed {removed}");
+    }
+
+    /// A stationary narrow peak (white noise through a two-pole resonator at 12 Hz, half-power
+    /// width ≈ 0.3 Hz, peak ≈ 25× the white floor) over 200 seeds: the centre's 1σ interval
+    /// covers the centre of the true excess (the resonator's density, power-weighted over the
+    /// same bins) near its nominal 68 %, its errors scatter as its half-widths say, and the
+    /// width's interval holds its estimate.
+    #[test]
+    fn the_centre_interval_covers() {
+        use std::f64::consts::{PI, TAU};
+        let (fs, n, r, f0) = (100.0, 200_000, 0.99_f64, 12.0);
+        let (a1, a2) = (2.0 * r * (TAU * f0 / fs).cos(), -r * r);
+        let gain = 0.05;
+        // One-sided density of the resonator's output for unit white input at fs.
+        let peak = |f: f64| {
+            let w = TAU * f / fs;
+            let re = 1.0 - a1 * w.cos() - a2 * (2.0 * w).cos();
+            let im = a1 * w.sin() + a2 * (2.0 * w).sin();
+            2.0 / fs * gain * gain / (re * re + im * im)
+        };
+        let floor = 2.0 / fs;
+        let model = |_f: f64| floor;
+        let (mut covered, mut squares) = (0, 0.0);
+        let seeds = 200;
+        for seed in 0..seeds {
+            let mut rng = Rng::new(9000 + seed);
+            let (mut x1, mut x2) = (0.0, 0.0);
+            let y: Vec<f64> = (0..n)
+                .map(|_| {
+                    let x = a1 * x1 + a2 * x2 + gain * rng.gauss();
+                    (x2, x1) = (x1, x);
+                    x + rng.gauss()
+                })
+                .collect();
+            let psd = welch(&y, fs, &WelchConfig::new(4096)).unwrap();
+            let nb = measure_narrowband(&psd, &model, 11.7, 12.3, 2048, 1.0).expect("a peak");
+            // The true excess's centre over the bins the measurement used.
+            let (mut w, mut wf) = (0.0, 0.0);
+            for (k, &f) in psd.freq_hz.iter().enumerate() {
+                if k > 0 && f >= nb.f_lo_hz && f <= nb.f_hi_hz {
+                    w += peak(f);
+                    wf += peak(f) * f;
+                }
+            }
+            let truth = wf / w;
+            squares += ((nb.freq_hz - truth) / ((nb.freq_hi_hz - nb.freq_lo_hz) / 2.0)).powi(2);
+            assert!((truth - f0).abs() < 0.01, "{truth}");
+            if nb.freq_lo_hz <= truth && truth <= nb.freq_hi_hz {
+                covered += 1;
+            }
+            assert!(
+                nb.width_lo_hz <= nb.width_hz && nb.width_hz <= nb.width_hi_hz,
+                "{nb:?}"
+            );
+            // The resonator's half-power width, (1 − r)·fs/π ≈ 0.32 Hz, against twice the rms
+            // spread (a Lorentzian's tails make the latter the wider).
+            assert!(nb.width_hz > (1.0 - r) * fs / PI, "{nb:?}");
+        }
+        let coverage = covered as f64 / seeds as f64;
+        // 200 seeds: a binomial standard error of 3.3 points about 68.3 % (measured 68.5 %), and
+        // about 5 % on the rms of the errors over the half-widths (measured 0.99).
+        assert!((0.58..=0.78).contains(&coverage), "coverage {coverage}");
+        let rms = (squares / seeds as f64).sqrt();
+        assert!((0.85..=1.15).contains(&rms), "rms normalised error {rms}");
     }
 
     #[test]
