@@ -12,7 +12,11 @@
 //!   coherent sinusoid of amplitude A has P = A²/2: the point-sampled amplitude convention of
 //!   [`super::sinusoid`]), its interval from Var P_k = 2P_k²/ν_k times 1.5 for the correlation of
 //!   neighbouring Hann bins, the centre and the width from the excess's first two moments (the
-//!   width twice the rms spread, with the window's own spread Δf²/3 (Hann) taken out).
+//!   width twice the rms spread, with the window's own spread Δf²/3 (Hann) taken out), their
+//!   intervals by the delta method on the same bin variances times the window's neighbour
+//!   redundancy (1.94 for Hann; the power's allowance of 1.5 made the centre's 1σ interval cover
+//!   in 60.5 % of 200 seeds, the redundancy in 68.5 %). The width's interval is the spread²'s
+//!   mapped through 2√·: it reaches 0 when the band is not resolved from the window.
 //! - **Evidence**: G = Σ ν_k (r_k − 1 − ln r_k)/1.5 (the likelihood-ratio statistic of each bin's
 //!   level against the model, r = P_k/S_k, the same correlation allowance) and
 //!   `delta_bic = 3·ln(bins searched) − G` (centre, width, power).
@@ -30,7 +34,7 @@ const BIN_CORRELATION: f64 = 1.5;
 /// Welch bins added on either side of the excess group.
 const GUARD_BINS: f64 = 2.0;
 
-/// A narrowband excess: centre, width, power with its interval, and the evidence.
+/// A narrowband excess: centre, width and power, each with its interval, and the evidence.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct NarrowBand {
     /// Power-weighted centre of the excess, Hz, and its interval.
