@@ -70,6 +70,13 @@ struct Tally {
     coupling_ratios: Vec<f64>,
     resonance_covered: [usize; 3],
     resonance_ratios: [Vec<f64>; 3],
+    /// Narrow bands found at a planted (wandering) line: how often the centre's 1σ interval
+    /// covered its mean frequency, the centres' distances from it and the intervals' half-widths
+    /// (Hz).
+    bands_found: usize,
+    band_centre_covered: usize,
+    band_centre_errors: Vec<f64>,
+    band_half_widths: Vec<f64>,
     edge_covered: [usize; 2],
     edge_widths: Vec<f64>,
     runs: usize,
@@ -628,6 +635,17 @@ fn main() {
                         }
                     }
                 }
+                if let imunoise::effects::Effect::Narrowband(nb) = &s.effect {
+                    if let Some(f) = case.extra["sinusoids"][0]["freq_hz"].as_f64() {
+                        tally.bands_found += 1;
+                        tally.band_centre_covered +=
+                            usize::from(nb.freq_lo_hz <= f && f <= nb.freq_hi_hz);
+                        tally.band_centre_errors.push((nb.freq_hz - f).abs());
+                        tally
+                            .band_half_widths
+                            .push((nb.freq_hi_hz - nb.freq_lo_hz) / 2.0);
+                    }
+                }
                 if let imunoise::effects::Effect::Excursion(e) = &s.effect {
                     tally.edges_found += 1;
                     for (k, (i, truth)) in [(e.start_interval_s, 600.0), (e.end_interval_s, 900.0)]
@@ -856,6 +874,15 @@ fn main() {
                 median(rf),
                 median(rq),
                 median(rs)
+            ));
+        } else if tally.bands_found > 0 {
+            edge_notes.push(format!(
+                "{}: of {} narrow bands found at the line, the centre's 1σ interval covers its mean frequency in {}; median distance from it {:.4} Hz, median half-width {:.4} Hz.",
+                case.name,
+                tally.bands_found,
+                pct(tally.band_centre_covered, tally.bands_found),
+                median(&mut tally.band_centre_errors),
+                median(&mut tally.band_half_widths)
             ));
         } else if tally.edges_found > 0 && case.expect == Some("excursion") {
             edge_notes.push(format!(

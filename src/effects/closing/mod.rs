@@ -60,9 +60,10 @@ use super::slow::{
 };
 use super::time::stats::norm_isf;
 use super::time::{
-    find_spikes_on_grid, find_step, fit_coupling, fit_sinusoid, measure_narrowband,
-    remove_coupling, remove_narrowband, remove_sinusoid, remove_spikes, remove_step, split_record,
-    Coupling, NarrowBand, SineFit, Spikes, SplitRecord, Step, StepMethod,
+    find_spikes_on_grid, find_step, fit_coupling, fit_sinusoid, intervals_from_parts,
+    measure_narrowband, remove_coupling, remove_narrowband, remove_sinusoid, remove_spikes,
+    remove_step, split_record, Coupling, NarrowBand, SineFit, Spikes, SplitRecord, Step,
+    StepMethod,
 };
 
 mod slow_candidates;
@@ -1065,6 +1066,7 @@ fn propose(
             if let Some(mut nb) =
                 measure_narrowband(&state.psd, &local, e.f_lo_hz, e.f_hi_hz, searched, z)
             {
+                intervals_from_parts(&mut nb, y, fs, &cfg.welch, &local, p);
                 nb.coherent_share = line_share.min(1.0);
                 let clean = remove_narrowband(y, fs, &nb, &local, state.psd.nperseg);
                 // A resonance's f₀, Q and σ are fitted only inside the fit band, where the model
