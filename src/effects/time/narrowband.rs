@@ -98,14 +98,14 @@ fn excess_moments(
 
 /// Replaces the centre's and the width's intervals of `nb` (measured on the whole record `y` at
 /// `fs` with the Welch settings `welch`) by batch means: the same two moments measured over the
-/// same band on each of [`PARTS`] contiguous sub-records, their standard error the scatter over
+/// same band on each of eight contiguous sub-records, their standard error the scatter over
 /// √parts, the half-width Student's t quantile of probability `p` with parts − 1 degrees of
 /// freedom. The delta method of [`measure_narrowband`] counts only each bin's own noise; a line
 /// whose frequency wanders moves all its bins together (in one segment the whole line sits
 /// high), and over 50 records of the validation's wandering line (±0.05 Hz, 10 s) its 1σ
 /// interval covered the mean frequency in 24 %, half as wide as the centres' scatter. Returns
 /// whether the intervals were replaced: not where a part would hold fewer than three segments'
-/// length or fewer than [`MIN_PARTS`] parts show the excess (the delta method's intervals stay).
+/// length or fewer than four parts show the excess (the delta method's intervals stay).
 pub fn intervals_from_parts(
     nb: &mut NarrowBand,
     y: &[f64],
