@@ -282,14 +282,7 @@ fn fill_group(
         let mut a = [bases[0], bases[1], bases[2], bases[3]];
         let mut t = [0.0f64; LANES];
         for k in 0..ANCHOR {
-            if k % SUB == 0 {
-                for l in 0..LANES {
-                    subs[l * SUBS + k / SUB] = t[l];
-                }
-            }
-            for l in 0..LANES {
-                t[l] += a[l];
-            }
+            advance_t(subs, &mut t, &a, k);
             a[0] += y0[k] - mean;
             a[1] += y1[k] - mean;
             a[2] += y2[k] - mean;
@@ -317,14 +310,34 @@ fn fill_group(
                 a += v - mean;
                 *dst = a;
             }
-            // A partial last block ending on a sub-anchor: that anchor is still inside S.
-            let k = o.len();
-            if k % SUB == 0 && k / SUB < SUBS {
-                subs[l * SUBS + k / SUB] = t;
-            }
-            totals[l] = t;
+            close_block(subs, totals, l, o.len(), t);
         }
     }
+}
+
+/// One step of the four lanes' T in [`fill_group`] and [`fill_group_in_place`]: at a
+/// sub-anchor (k a multiple of `SUB`) each lane's running Σ S is recorded, then each lane's
+/// current S (`a`) added.
+#[inline(always)]
+fn advance_t(subs: &mut [f64], t: &mut [f64; LANES], a: &[f64; LANES], k: usize) {
+    if k.is_multiple_of(SUB) {
+        for l in 0..LANES {
+            subs[l * SUBS + k / SUB] = t[l];
+        }
+    }
+    for l in 0..LANES {
+        t[l] += a[l];
+    }
+}
+
+/// The end of block `l` (of `len` values) in the one-lane fills: its T total, and a partial last
+/// block ending on a sub-anchor records that anchor too (it is still inside S).
+#[inline(always)]
+fn close_block(subs: &mut [f64], totals: &mut [f64], l: usize, len: usize, t: f64) {
+    if len.is_multiple_of(SUB) && len / SUB < SUBS {
+        subs[l * SUBS + len / SUB] = t;
+    }
+    totals[l] = t;
 }
 
 /// [`fill_group`] in the samples' own buffer: `buf` holds the samples of up to `LANES`
@@ -345,14 +358,7 @@ fn fill_group_in_place(
         let mut t = [0.0f64; LANES];
         let mut next = [buf[0], buf[ANCHOR], buf[2 * ANCHOR], buf[3 * ANCHOR]];
         for k in 0..ANCHOR {
-            if k % SUB == 0 {
-                for l in 0..LANES {
-                    subs[l * SUBS + k / SUB] = t[l];
-                }
-            }
-            for l in 0..LANES {
-                t[l] += a[l];
-            }
+            advance_t(subs, &mut t, &a, k);
             let v = next;
             if k + 1 < ANCHOR {
                 for l in 0..LANES {
@@ -396,11 +402,7 @@ fn fill_group_in_place(
                     buf[start + k + 1] = a;
                 }
             }
-            // A partial last block ending on a sub-anchor: that anchor is still inside S.
-            if len.is_multiple_of(SUB) && len / SUB < SUBS {
-                subs[l * SUBS + len / SUB] = t;
-            }
-            totals[l] = t;
+            close_block(subs, totals, l, len, t);
             // This block's last value is S at the next block's first index (read above).
             if l > 0 {
                 buf[start] = carry;

@@ -275,23 +275,17 @@ impl Problem {
     /// until the coefficients settle (relative change < 1e-6, a thousandth of the narrowest
     /// interval the fits report), at most 100 steps.
     pub fn irls(&self, mask: Mask) -> SubsetFit {
-        self.irls_within(mask, 1e-6)
+        self.reweighted(mask, 1e-6, false)
     }
 
-    /// [`Problem::irls`] until the coefficients' relative change is below `tolerance`: a search
-    /// that only ranks many trial problems by their likelihood settles for less than the fit it
-    /// reports.
-    pub fn irls_within(&self, mask: Mask, tolerance: f64) -> SubsetFit {
-        self.reweighted(mask, tolerance, false)
-    }
-
-    /// [`Problem::irls_within`], extrapolating where the steps shrink geometrically: after three
-    /// steps whose changes keep one ratio r (0 < r < 0.9, measured on each coefficient relative
-    /// to itself), the iteration jumps by the rest of the geometric series, r/(1 − r) times the
-    /// last change (negative coefficients clipped to 0), and goes on from there (Aitken's Δ²
-    /// for a vector). Only the point it starts from changes, not the fixed point it stops at, but
-    /// the stop (two steps within the tolerance) comes at another iterate: for searches that only
-    /// rank trials. A trial filter whose white noise gives way to the floor halved the white
+    /// [`Problem::irls`] until the coefficients' relative change is below `tolerance` (a search
+    /// that only ranks many trials settles for less than the fit it reports), extrapolating where
+    /// the steps shrink geometrically: once two successive changes keep one ratio r (0 < r < 0.9,
+    /// a least-squares ratio with each coefficient's change taken relative to the coefficient),
+    /// the iteration jumps by the rest of the geometric series, r/(1 − r) times the last change
+    /// (negative coefficients clipped to 0), and goes on from there (Aitken's Δ² for a vector).
+    /// Only the point it starts from changes, not the fixed point it stops at, but the stop (two
+    /// steps within the tolerance) comes at another iterate: for searches that only rank trials. A trial filter whose white noise gives way to the floor halved the white
     /// coefficient at every step for 20–40 steps.
     pub fn irls_accelerated(&self, mask: Mask, tolerance: f64) -> SubsetFit {
         self.reweighted(mask, tolerance, true)

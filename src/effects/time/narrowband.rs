@@ -29,6 +29,7 @@
 
 use realfft::RealFftPlanner;
 
+use super::stats::mean_var;
 use crate::psd::{neighbour_redundancy, Psd, WelchConfig};
 
 /// Allowance for the correlation of neighbouring Hann-window bins (variance of sums, and the
@@ -70,15 +71,27 @@ pub struct NarrowBand {
 const PARTS: usize = 8;
 const MIN_PARTS: usize = 4;
 
+/// The excess of a spectrum over the noise model in a band ([`excess_moments`]).
+#[derive(Debug, Clone, Copy)]
+struct ExcessMoments {
+    /// Σ (P_k − S_k)·Δf.
+    power: f64,
+    /// W = Σ max(P_k − S_k, 0), the weight of the moments.
+    weight: f64,
+    /// The first moment and the second central moment of the bins' frequencies, weighted by
+    /// max(P_k − S_k, 0).
+    centre: f64,
+    second: f64,
+}
+
 /// The excess of `psd` over `model_one_sided` in the bins within [lo, hi] (DC and Nyquist left
-/// out): its power Σ (P_k − S_k)·Δf and its first two moments weighted by max(P_k − S_k, 0):
-/// (power, centre, second central moment). `None` when nothing lies above the model there.
+/// out). `None` when nothing lies above the model there.
 fn excess_moments(
     psd: &Psd,
     model_one_sided: &dyn Fn(f64) -> f64,
     lo: f64,
     hi: f64,
-) -> Option<(f64, f64, f64)> {
+) -> Option<ExcessMoments> {
     let df = psd.bin_width_hz();
     let (mut power, mut w_sum, mut f_sum, mut f2_sum) = (0.0, 0.0, 0.0, 0.0);
     for k in 1..psd.freq_hz.len().saturating_sub(1) {
@@ -95,8 +108,19 @@ fn excess_moments(
     }
     (w_sum > 0.0).then(|| {
         let centre = f_sum / w_sum;
-        (power, centre, f2_sum / w_sum - centre * centre)
+        ExcessMoments {
+            power,
+            weight: w_sum,
+            centre,
+            second: f2_sum / w_sum - centre * centre,
+        }
     })
+}
+
+/// The reported width of a band of spread² `spread2`: twice its rms spread (0 where the
+/// window's own spread, taken out, leaves nothing).
+fn width_of(spread2: f64) -> f64 {
+    2.0 * spread2.max(0.0).sqrt()
 }
 
 /// sinc²(πf/fs): the share of a line's power at `f` that survives each sample being its
@@ -135,7 +159,7 @@ pub fn intervals_from_parts(
     if len < 3 * welch.nperseg {
         return false;
     }
-    let moments: Vec<(f64, f64, f64)> = y
+    let moments: Vec<ExcessMoments> = y
         .chunks_exact(len)
         .take(PARTS)
         .filter_map(|part| {
@@ -147,16 +171,13 @@ pub fn intervals_from_parts(
     if parts < MIN_PARTS {
         return false;
     }
-    let standard_error = |v: &[f64]| {
-        let mean = v.iter().sum::<f64>() / v.len() as f64;
-        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (v.len() - 1) as f64;
-        (var / v.len() as f64).sqrt()
-    };
+    // Of the mean of the parts: the sample variance (n − 1) over n.
+    let standard_error = |v: &[f64]| (mean_var(v).1 / (v.len() - 1) as f64).sqrt();
     let t = crate::stats::t_two_sided(p, (parts - 1) as f64);
     let gain = interval_mean_gain(nb.freq_hz, fs);
-    let powers: Vec<f64> = moments.iter().map(|m| m.0 / gain).collect();
-    let centres: Vec<f64> = moments.iter().map(|m| m.1).collect();
-    let seconds: Vec<f64> = moments.iter().map(|m| m.2).collect();
+    let powers: Vec<f64> = moments.iter().map(|m| m.power / gain).collect();
+    let centres: Vec<f64> = moments.iter().map(|m| m.centre).collect();
+    let seconds: Vec<f64> = moments.iter().map(|m| m.second).collect();
     let half = t * standard_error(&powers);
     (nb.power_lo, nb.power_hi) = ((nb.power - half).max(0.0), nb.power + half);
     let half = t * standard_error(&centres);
@@ -164,8 +185,7 @@ pub fn intervals_from_parts(
     // The spread² behind the width (the window's own spread was taken out of it).
     let spread2 = (nb.width_hz / 2.0).powi(2);
     let half = t * standard_error(&seconds);
-    let width = |s2: f64| 2.0 * s2.max(0.0).sqrt();
-    (nb.width_lo_hz, nb.width_hi_hz) = (width(spread2 - half), width(spread2 + half));
+    (nb.width_lo_hz, nb.width_hi_hz) = (width_of(spread2 - half), width_of(spread2 + half));
     true
 }
 
@@ -190,32 +210,26 @@ pub fn measure_narrowband(
     if bins.is_empty() {
         return None;
     }
-    let (mut power, mut var, mut g) = (0.0, 0.0, 0.0);
-    let (mut w_sum, mut f_sum, mut f2_sum) = (0.0, 0.0, 0.0);
+    let (mut var, mut g) = (0.0, 0.0);
     for &k in &bins {
-        let (p, s, f) = (
-            psd.value[k],
-            model_one_sided(psd.freq_hz[k]),
-            psd.freq_hz[k],
-        );
+        let (p, s) = (psd.value[k], model_one_sided(psd.freq_hz[k]));
         let nu = psd.dof[k].max(1.0);
         if !(s > 0.0 && s.is_finite()) {
             return None;
         }
-        power += (p - s) * df;
         var += 2.0 * p * p / nu * df * df;
         let r = p / s;
         g += nu * (r - 1.0 - r.ln());
-        let w = (p - s).max(0.0);
-        w_sum += w;
-        f_sum += w * f;
-        f2_sum += w * f * f;
     }
-    if !(power > 0.0 && w_sum > 0.0) {
+    let ExcessMoments {
+        power,
+        weight: w_sum,
+        centre,
+        second,
+    } = excess_moments(psd, model_one_sided, lo, hi)?;
+    if !(power > 0.0) {
         return None;
     }
-    let centre = f_sum / w_sum;
-    let second = f2_sum / w_sum - centre * centre;
     // The centre's and the spread's variances by the delta method: each bin's excess varies as
     // its power does (2p²/ν), times the window's [`neighbour_redundancy`] for the correlation of
     // neighbouring bins (with the power's allowance of 1.5 instead, the centre's 1σ interval
@@ -243,14 +257,13 @@ pub fn measure_narrowband(
     let (power, var) = (power / sinc2, var / (sinc2 * sinc2));
     let sd = (BIN_CORRELATION * var).sqrt();
     let spread2 = second - df * df / 3.0;
-    let width = |s2: f64| 2.0 * s2.max(0.0).sqrt();
     Some(NarrowBand {
         freq_hz: centre,
         freq_lo_hz: centre - z * sd_centre,
         freq_hi_hz: centre + z * sd_centre,
-        width_hz: width(spread2),
-        width_lo_hz: width(spread2 - z * sd_second),
-        width_hi_hz: width(spread2 + z * sd_second),
+        width_hz: width_of(spread2),
+        width_lo_hz: width_of(spread2 - z * sd_second),
+        width_hi_hz: width_of(spread2 + z * sd_second),
         f_lo_hz: lo,
         f_hi_hz: hi,
         power,
