@@ -336,7 +336,7 @@ fn print_stdout(text: &str, separate: bool) -> bool {
 fn print_json(doc: &serde_json::Value) -> Result<(), OutputError> {
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
-    let result = serde_json::to_writer_pretty(&mut out, doc)
+    let result = report::write_json_layout(&mut out, doc)
         .map_err(std::io::Error::from)
         .and_then(|_| writeln!(out))
         .and_then(|_| out.flush());
@@ -353,6 +353,31 @@ fn write_outputs(
     ok: &[FileResult],
     failures: &[(String, String)],
     doc: &serde_json::Value,
+    elapsed_s: f64,
+) -> Result<(), OutputError> {
+    let dir = &job.output.dir;
+    let formats = job.output.formats;
+    // report.json is formatted and written on a thread of its own while the tables, summary and
+    // plots are written here: on a 10⁷-sample `psd` the two took 7 and 5 ms one after the other.
+    std::thread::scope(|scope| {
+        let json = formats
+            .json
+            .then(|| scope.spawn(|| report::write_json(&dir.join("report.json"), doc)));
+        let rest = write_tables_and_folders(job, ok, failures, elapsed_s);
+        let json = json.map_or(Ok(()), |handle| {
+            handle
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+        });
+        rest.and(json)
+    })
+}
+
+/// Everything but report.json: the tables, summary.md and the per-file folders.
+fn write_tables_and_folders(
+    job: &Job,
+    ok: &[FileResult],
+    failures: &[(String, String)],
     elapsed_s: f64,
 ) -> Result<(), OutputError> {
     let dir = &job.output.dir;
@@ -392,9 +417,6 @@ fn write_outputs(
     }
     if job.work.avar.is_some() {
         report::write_table(dir, "avar", &report::avar_table(&refs), formats)?;
-    }
-    if formats.json {
-        report::write_json(&dir.join("report.json"), doc)?;
     }
     Ok(())
 }

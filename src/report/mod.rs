@@ -10,6 +10,7 @@ mod atomic;
 mod figures;
 pub mod format;
 mod info;
+mod json_layout;
 mod kalibr;
 mod model;
 pub mod plot;
@@ -24,6 +25,7 @@ pub use atomic::{write_atomically, OutputError};
 pub use figures::{avar_figure, psd_figure};
 pub use format::sig4;
 pub use info::info_text;
+pub use json_layout::write_json as write_json_layout;
 pub use kalibr::imu_yaml;
 pub use model::{analysis_json, coefficients_table, units_of};
 pub use summary::{effect_line, ramp_sentence, summary_markdown, warning_line, EffectUnits};
@@ -87,9 +89,9 @@ pub fn psd_table(results: &[&FileResult]) -> Table {
             let unit = psd_unit(channel_unit(&r.recording, &c.channel), c.psd.scaling);
             t.append(Table {
                 columns: vec![
-                    ("file".into(), Column::Str(vec![file_name(&r.recording); n])),
-                    ("channel".into(), Column::Str(vec![c.channel.clone(); n])),
-                    ("unit".into(), Column::Str(vec![unit; n])),
+                    ("file".into(), Column::repeated(file_name(&r.recording), n)),
+                    ("channel".into(), Column::repeated(c.channel.as_str(), n)),
+                    ("unit".into(), Column::repeated(unit, n)),
                     ("freq_hz".into(), Column::F64(c.psd.freq_hz.clone())),
                     ("psd".into(), Column::F64(c.psd.value.clone())),
                     ("dof".into(), Column::F64(c.psd.dof.clone())),
@@ -111,9 +113,9 @@ pub fn psd_binned_table(results: &[&FileResult]) -> Table {
             let unit = psd_unit(channel_unit(&r.recording, &c.channel), c.psd.scaling);
             t.append(Table {
                 columns: vec![
-                    ("file".into(), Column::Str(vec![file_name(&r.recording); n])),
-                    ("channel".into(), Column::Str(vec![c.channel.clone(); n])),
-                    ("unit".into(), Column::Str(vec![unit; n])),
+                    ("file".into(), Column::repeated(file_name(&r.recording), n)),
+                    ("channel".into(), Column::repeated(c.channel.as_str(), n)),
+                    ("unit".into(), Column::repeated(unit, n)),
                     ("freq_hz".into(), Column::F64(b.freq_hz.clone())),
                     ("f_lo_hz".into(), Column::F64(b.f_lo_hz.clone())),
                     ("f_hi_hz".into(), Column::F64(b.f_hi_hz.clone())),
@@ -143,12 +145,12 @@ pub fn avar_table(results: &[&FileResult]) -> Table {
                 let dev = d.deviation();
                 t.append(Table {
                     columns: vec![
-                        ("file".into(), Column::Str(vec![file_name(&r.recording); n])),
-                        ("channel".into(), Column::Str(vec![c.channel.clone(); n])),
-                        ("unit".into(), Column::Str(vec![unit.clone(); n])),
+                        ("file".into(), Column::repeated(file_name(&r.recording), n)),
+                        ("channel".into(), Column::repeated(c.channel.as_str(), n)),
+                        ("unit".into(), Column::repeated(unit.as_str(), n)),
                         (
                             "statistic".into(),
-                            Column::Str(vec![d.statistic.to_string(); n]),
+                            Column::repeated(d.statistic.to_string(), n),
                         ),
                         ("m".into(), Column::U64(d.m.clone())),
                         ("tau_s".into(), Column::F64(d.tau_s.clone())),
@@ -334,9 +336,10 @@ pub fn write_table(
     Ok(())
 }
 
-/// Writes the document as pretty JSON, atomically.
+/// Writes the document as indented JSON with numeric arrays on one line
+/// ([`write_json_layout`]), atomically.
 pub fn write_json(path: &Path, doc: &Value) -> Result<(), OutputError> {
-    write_atomically(path, |out| serde_json::to_writer_pretty(out, doc))
+    write_atomically(path, |out| write_json_layout(out, doc))
 }
 
 /// Writes the plots of every analysed channel of `r` into `folder` as SVG and PNG:

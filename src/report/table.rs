@@ -18,15 +18,37 @@ pub enum Column {
     U64(Vec<u64>),
     I64(Vec<i64>),
     Str(Vec<String>),
+    /// Text as runs of one value: (value, rows). The long tables repeat a file, channel and unit
+    /// along thousands of rows; as one `String` a row, the 10⁷-sample `psd` spent more time
+    /// allocating and freeing them than writing its report. Written like [`Column::Str`].
+    Runs(Vec<(String, usize)>),
 }
 
 impl Column {
+    /// `value` on each of `rows` rows.
+    pub fn repeated(value: impl Into<String>, rows: usize) -> Column {
+        Column::Runs(vec![(value.into(), rows)])
+    }
+
     fn len(&self) -> usize {
         match self {
             Column::F64(v) => v.len(),
             Column::U64(v) => v.len(),
             Column::I64(v) => v.len(),
             Column::Str(v) => v.len(),
+            Column::Runs(runs) => runs.iter().map(|(_, n)| n).sum(),
+        }
+    }
+
+    /// The rows of a text column in order (none for a numeric one).
+    fn texts(&self) -> Box<dyn Iterator<Item = &str> + '_> {
+        match self {
+            Column::Str(v) => Box::new(v.iter().map(String::as_str)),
+            Column::Runs(runs) => Box::new(
+                runs.iter()
+                    .flat_map(|(value, n)| std::iter::repeat_n(value.as_str(), *n)),
+            ),
+            _ => Box::new(std::iter::empty()),
         }
     }
 
@@ -36,6 +58,14 @@ impl Column {
             (Column::U64(a), Column::U64(b)) => a.extend(b),
             (Column::I64(a), Column::I64(b)) => a.extend(b),
             (Column::Str(a), Column::Str(b)) => a.extend(b),
+            (Column::Runs(a), Column::Runs(b)) => {
+                for (value, n) in b {
+                    match a.last_mut() {
+                        Some((last, m)) if *last == value => *m += n,
+                        _ => a.push((value, n)),
+                    }
+                }
+            }
             _ => panic!("table columns appended with different types"),
         }
     }
@@ -77,6 +107,7 @@ impl Table {
                 Column::U64(v) => (DataType::UInt64, Arc::new(UInt64Array::from(v.clone()))),
                 Column::I64(v) => (DataType::Int64, Arc::new(Int64Array::from(v.clone()))),
                 Column::Str(v) => (DataType::Utf8, Arc::new(StringArray::from(v.clone()))),
+                Column::Runs(runs) => (DataType::Utf8, Arc::new(runs_array(runs))),
             };
             fields.push(Field::new(name, dt, false));
             arrays.push(array);
@@ -101,6 +132,7 @@ impl Table {
         write_atomically(path, |out| -> std::io::Result<()> {
             let header: Vec<&str> = self.columns.iter().map(|(n, _)| n.as_str()).collect();
             writeln!(out, "{}", header.join(","))?;
+            let mut texts: Vec<_> = self.columns.iter().map(|(_, c)| c.texts()).collect();
             for r in 0..self.rows() {
                 let mut line = String::new();
                 for (i, (_, col)) in self.columns.iter().enumerate() {
@@ -111,7 +143,9 @@ impl Table {
                         Column::F64(v) => line.push_str(&format!("{:?}", v[r])),
                         Column::U64(v) => line.push_str(&v[r].to_string()),
                         Column::I64(v) => line.push_str(&v[r].to_string()),
-                        Column::Str(v) => line.push_str(&csv_quote(&v[r])),
+                        Column::Str(_) | Column::Runs(_) => {
+                            line.push_str(&csv_quote(texts[i].next().unwrap_or_default()))
+                        }
                     }
                 }
                 writeln!(out, "{line}")?;
@@ -119,6 +153,20 @@ impl Table {
             Ok(())
         })
     }
+}
+
+/// The string array of a run-length text column: one value buffer filled run by run, no string a
+/// row.
+fn runs_array(runs: &[(String, usize)]) -> StringArray {
+    let rows = runs.iter().map(|(_, n)| n).sum();
+    let bytes = runs.iter().map(|(v, n)| v.len() * n).sum();
+    let mut b = arrow_array::builder::StringBuilder::with_capacity(rows, bytes);
+    for (value, n) in runs {
+        for _ in 0..*n {
+            b.append_value(value);
+        }
+    }
+    b.finish()
 }
 
 fn csv_quote(s: &str) -> String {
@@ -160,5 +208,48 @@ mod tests {
         let b = r.next().unwrap().unwrap();
         let x = b.column(1).as_any().downcast_ref::<Float64Array>().unwrap();
         assert_eq!(x.value(0), 0.1 + 0.2);
+    }
+
+    #[test]
+    fn runs_write_as_the_strings_they_stand_for() {
+        let dir = tempfile::tempdir().unwrap();
+        let table = |file: Column, unit: Column| Table {
+            columns: vec![
+                ("file".into(), file),
+                ("unit".into(), unit),
+                ("x".into(), Column::F64(vec![1.0, 2.0, 3.0, 4.0])),
+            ],
+            metadata: Default::default(),
+        };
+        let mut runs = table(Column::repeated("a,b", 1), Column::repeated("u", 1));
+        runs.append(table(Column::repeated("a,b", 1), Column::repeated("u", 1)));
+        runs.append(table(Column::repeated("c", 2), Column::repeated("u", 2)));
+        runs.columns[2].1 = Column::F64(vec![1.0, 2.0, 3.0, 4.0]);
+        assert_eq!(
+            runs.columns[0].1,
+            Column::Runs(vec![("a,b".into(), 2), ("c".into(), 2)])
+        );
+        assert_eq!(runs.columns[1].1, Column::Runs(vec![("u".into(), 4)]));
+        let strings = table(
+            Column::Str(["a,b", "a,b", "c", "c"].map(String::from).to_vec()),
+            Column::Str(vec!["u".into(); 4]),
+        );
+        for (t, stem) in [(&runs, "runs"), (&strings, "strings")] {
+            t.write_csv(&dir.path().join(format!("{stem}.csv")))
+                .unwrap();
+            t.write_arrow(&dir.path().join(format!("{stem}.arrow")))
+                .unwrap();
+        }
+        let read = |name: &str| std::fs::read(dir.path().join(name)).unwrap();
+        assert_eq!(read("runs.csv"), read("strings.csv"));
+        let batch = |name: &str| {
+            let f = std::fs::File::open(dir.path().join(name)).unwrap();
+            arrow_ipc::reader::FileReader::try_new(f, None)
+                .unwrap()
+                .next()
+                .unwrap()
+                .unwrap()
+        };
+        assert_eq!(batch("runs.arrow"), batch("strings.arrow"));
     }
 }
