@@ -238,10 +238,22 @@ pub fn run(
         _ => None,
     };
 
-    let avar: Option<Vec<ChannelDeviations>> = match (&series, &work.avar) {
-        (Some(series), Some(a)) => {
+    // Without a fit the samples are not needed after the Allan statistics: the last one builds
+    // its prefix sums in their buffers.
+    let (series, samples_for_avar) = match work.fit {
+        Some(_) => (series, None),
+        None => (None, series),
+    };
+    let avar: Option<Vec<ChannelDeviations>> = match (&series, samples_for_avar, &work.avar) {
+        (Some(series), _, Some(a)) => {
             let t = Instant::now();
-            let out = deviations(&recording, series, a, backend)?;
+            let out = deviations(&recording, Samples::Borrowed(series), a, backend)?;
+            timings.avar_s = t.elapsed().as_secs_f64();
+            Some(out)
+        }
+        (None, Some(series), Some(a)) => {
+            let t = Instant::now();
+            let out = deviations(&recording, Samples::Owned(series), a, backend)?;
             timings.avar_s = t.elapsed().as_secs_f64();
             Some(out)
         }
@@ -353,7 +365,15 @@ fn read_overlapped(
                         return None;
                     }
                 };
-                let (held, held_rows) = pending.get_or_insert_with(Default::default);
+                // Blocks smaller than a message are gathered in one buffer of a message's size:
+                // growing the first block's buffer instead copied each sample twice on average.
+                let (held, held_rows) = pending.get_or_insert_with(|| {
+                    let rows = if chunk.len() < target { target } else { 0 };
+                    (
+                        SampleChunk::with_capacity(chunk.channels.len(), rows),
+                        ChunkRows::default(),
+                    )
+                });
                 held.append(chunk);
                 held_rows.read += rows;
                 held_rows.largest_block = held_rows.largest_block.max(rows);
@@ -475,13 +495,22 @@ pub fn factors_for_seconds(taus_s: &[f64], rate_hz: f64) -> Vec<u64> {
     m
 }
 
+/// The samples the Allan statistics read: borrowed when the fit reads them afterwards.
+enum Samples<'a> {
+    Borrowed(&'a [Vec<f64>]),
+    Owned(Vec<Vec<f64>>),
+}
+
 fn deviations(
     recording: &Recording,
-    series: &[Vec<f64>],
+    mut series: Samples,
     work: &AvarWork,
     backend: &dyn Backend,
 ) -> Result<Vec<ChannelDeviations>, Error> {
-    let n = series.first().map_or(0, Vec::len);
+    let n = match &series {
+        Samples::Borrowed(s) => s.first().map_or(0, Vec::len),
+        Samples::Owned(s) => s.first().map_or(0, Vec::len),
+    };
     let grid = match &work.taus {
         TauSpec::Grid(g) => g.clone(),
         TauSpec::Seconds(t) => TauGrid::Explicit(factors_for_seconds(t, recording.rate_hz)),
@@ -494,9 +523,16 @@ fn deviations(
             statistics: Vec::new(),
         })
         .collect();
-    for &statistic in &work.statistics {
-        let results =
-            backend.deviations(series, recording.rate_hz, &grid, statistic, work.confidence);
+    for (k, &statistic) in work.statistics.iter().enumerate() {
+        let last = k + 1 == work.statistics.len();
+        let (rate, c) = (recording.rate_hz, work.confidence);
+        let results = match &mut series {
+            Samples::Owned(s) if last => {
+                backend.deviations_consuming(std::mem::take(s), rate, &grid, statistic, c)
+            }
+            Samples::Owned(s) => backend.deviations(s, rate, &grid, statistic, c),
+            Samples::Borrowed(s) => backend.deviations(s, rate, &grid, statistic, c),
+        };
         for (slot, result) in out.iter_mut().zip(results) {
             // An explicit τ the recording cannot support is an error naming it, not a silently
             // shorter list (the Allan module checks; here it gets the file's name).

@@ -48,4 +48,18 @@ impl Backend for CpuBackend {
             .map(|y| avar::compute(y, rate_hz, grid, statistic, confidence))
             .collect()
     }
+
+    fn deviations_consuming(
+        &self,
+        channels: Vec<Vec<f64>>,
+        rate_hz: f64,
+        grid: &TauGrid,
+        statistic: Statistic,
+        confidence: Confidence,
+    ) -> Vec<Result<Deviations, AvarError>> {
+        channels
+            .into_iter()
+            .map(|y| avar::compute_owned(y, rate_hz, grid, statistic, confidence))
+            .collect()
+    }
 }

@@ -33,10 +33,19 @@ impl SampleChunk {
         self.len() == 0
     }
 
+    /// An empty chunk of `channels` channels with room for `rows` samples each.
+    pub fn with_capacity(channels: usize, rows: usize) -> SampleChunk {
+        SampleChunk {
+            channels: (0..channels).map(|_| Vec::with_capacity(rows)).collect(),
+        }
+    }
+
     /// Appends `later`'s samples (the same channels, in the same order) after this chunk's; an
-    /// empty chunk takes `later`'s buffers as they are.
+    /// empty chunk without room for them takes `later`'s buffers as they are.
     pub fn append(&mut self, later: SampleChunk) {
-        if self.is_empty() {
+        let room = self.channels.len() == later.channels.len()
+            && self.channels.iter().all(|c| c.capacity() >= later.len());
+        if self.is_empty() && !room {
             *self = later;
             return;
         }
@@ -130,17 +139,17 @@ impl Cleaner {
 
     /// Screens one block; returns the samples that are final (possibly fewer or more rows than the
     /// block: dropped rows, filled gaps, and an interpolation waiting for its right-hand neighbour).
-    pub fn push(&mut self, block: Block) -> Result<SampleChunk, InputError> {
+    pub fn push(&mut self, mut block: Block) -> Result<SampleChunk, InputError> {
         let rows = block.rows();
         let mut start = 0;
         if let (Some(times), None) = (&block.time_s, self.previous_time) {
             self.grid = GridTracker::anchored(self.grid_period_s, times);
         }
-        if let Some(times) = &block.time_s {
+        if let Some(times) = block.time_s.take() {
             for (i, &t) in times.iter().enumerate() {
                 let row = block.first_row + i as u64;
                 if let Some(missing) = self.check_time(row, t)? {
-                    self.emit_rows(&block, start, i)?;
+                    self.emit_rows(&mut block, start, i)?;
                     start = i;
                     if self.options.gaps == GapPolicy::Fill {
                         let next: Vec<f64> = block.channels.iter().map(|c| c[i]).collect();
@@ -152,7 +161,7 @@ impl Cleaner {
                 self.last_time = t;
             }
         }
-        self.emit_rows(&block, start, rows)?;
+        self.emit_rows(&mut block, start, rows)?;
         self.rows_read += rows as u64;
         Ok(self.take_ready())
     }
@@ -292,7 +301,10 @@ impl Cleaner {
     }
 
     /// Hands on rows `a..b` of `block`.
-    fn emit_rows(&mut self, block: &Block, a: usize, b: usize) -> Result<(), InputError> {
+    /// Screens rows `a..b` of `block` and queues them. A channel's whole block that nothing is
+    /// held before is taken as it is (its buffer moved, not copied: the block is not read again
+    /// after its last rows are queued).
+    fn emit_rows(&mut self, block: &mut Block, a: usize, b: usize) -> Result<(), InputError> {
         if a >= b {
             return Ok(());
         }
@@ -302,9 +314,10 @@ impl Cleaner {
             .iter()
             .map(|c| SliceScan::of(&c[a..b]))
             .collect();
-        let last_row = || block.channels.iter().map(|c| c[b - 1]).collect();
+        let last_row = |block: &Block| block.channels.iter().map(|c| c[b - 1]).collect();
         if let Some(scans) = scans {
-            for ((c, values), scan) in block.channels.iter().enumerate().zip(scans) {
+            self.previous_row = Some(last_row(block));
+            for ((c, values), scan) in block.channels.iter_mut().enumerate().zip(scans) {
                 let slice = &values[a..b];
                 self.stats[c].push_scanned(slice, scan);
                 if let Some(start) = self.runs[c].start.take() {
@@ -312,9 +325,12 @@ impl Cleaner {
                     interpolate(&mut self.pending[c][start..], from, slice[0]);
                 }
                 self.runs[c].last_finite = Some(slice[slice.len() - 1]);
-                self.pending[c].extend_from_slice(slice);
+                if a == 0 && b == values.len() && self.pending[c].is_empty() {
+                    self.pending[c] = std::mem::take(values);
+                } else {
+                    self.pending[c].extend_from_slice(slice);
+                }
             }
-            self.previous_row = Some(last_row());
             return Ok(());
         }
         for i in a..b {
