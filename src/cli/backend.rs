@@ -5,7 +5,9 @@
 use std::sync::Arc;
 
 use imunoise::estimate::{Backend, CpuBackend};
-use imunoise::gpu::{ContextOptions, GpuBackend, GpuContext, GpuError};
+use imunoise::gpu::{
+    probe_quietly, request_adapter, ContextOptions, GpuBackend, GpuContext, GpuError,
+};
 
 use super::config::BackendChoice;
 
@@ -31,22 +33,47 @@ fn open_gpu(verbose: bool) -> Result<GpuBackend, GpuError> {
     )))
 }
 
+/// What `auto` found.
+enum Probe {
+    Hardware(GpuBackend),
+    /// A software rasteriser, by name: no device is opened on it.
+    Software(String),
+}
+
+/// The preferred adapter, and a device on it only when it is real hardware: opening a device on
+/// lavapipe was wasted work for `auto`, which computes on the CPU then (a tenth of a small file's
+/// `avar`). Quiet as [`open_gpu`].
+fn open_hardware_gpu(verbose: bool) -> Result<Probe, GpuError> {
+    let options = ContextOptions {
+        quiet_probe: !verbose,
+        ..ContextOptions::default()
+    };
+    probe_quietly(options.quiet_probe, || {
+        let adapter = request_adapter(&options)?;
+        let info = adapter.get_info();
+        if info.device_type == wgpu::DeviceType::Cpu {
+            return Ok(Probe::Software(info.name));
+        }
+        let context = GpuContext::on_adapter(&adapter, &options)?;
+        Ok(Probe::Hardware(GpuBackend::with_context(Arc::new(context))))
+    })
+}
+
 /// The backend for `choice`. An error only for `gpu`, which must not fall back.
 pub fn choose(choice: BackendChoice, chatter: Chatter) -> Result<Box<dyn Backend>, GpuError> {
     match choice {
         BackendChoice::Cpu => Ok(Box::new(CpuBackend)),
         BackendChoice::Gpu => Ok(Box::new(open_gpu(chatter.verbose)?)),
-        BackendChoice::Auto => match open_gpu(chatter.verbose) {
-            Ok(gpu) if gpu.context().adapter_info().device_type == wgpu::DeviceType::Cpu => {
+        BackendChoice::Auto => match open_hardware_gpu(chatter.verbose) {
+            Ok(Probe::Hardware(gpu)) => Ok(Box::new(gpu)),
+            Ok(Probe::Software(name)) => {
                 if !chatter.quiet {
                     eprintln!(
-                        "imunoise: only a software GPU ({}); computing on the CPU (--backend gpu forces it)",
-                        gpu.context().adapter_info().name
+                        "imunoise: only a software GPU ({name}); computing on the CPU (--backend gpu forces it)"
                     );
                 }
                 Ok(Box::new(CpuBackend))
             }
-            Ok(gpu) => Ok(Box::new(gpu)),
             Err(e) => {
                 if chatter.verbose {
                     eprintln!("imunoise: no usable GPU ({e}); computing on the CPU");

@@ -53,7 +53,9 @@ mod timing;
 pub mod welch;
 
 pub use backend::GpuBackend;
-pub use context::{local_fft_size, request_adapter, request_device, ContextOptions, GpuContext};
+pub use context::{
+    local_fft_size, probe_quietly, request_adapter, request_device, ContextOptions, GpuContext,
+};
 pub use error::GpuError;
 pub use fallback::{Fallback, FallbackLog, FallbackReason, Task};
 pub use timing::KernelTimes;
