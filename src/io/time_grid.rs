@@ -133,18 +133,6 @@ fn coherent_period(times: &[f64], rough_period: f64) -> f64 {
         if span.is_nan() || span <= 0.0 {
             return period;
         }
-        let coherence = |p: f64| {
-            // sin and cos are periodic: no reduction modulo the period is needed (the angle
-            // reaches 2π·65 536 at most, where f64 keeps it to 1e-10 rad).
-            let scale = std::f64::consts::TAU / p;
-            let (mut s, mut c) = (0.0, 0.0);
-            for &t in head {
-                let (sa, ca) = ((t - t0) * scale).sin_cos();
-                s += sa;
-                c += ca;
-            }
-            s * s + c * c
-        };
         // The peak's width in P is about P²/span. Trial periods that far apart first (the best of
         // them lies in the main lobe: within half a width of the peak the coherence keeps over
         // half its height, while side lobes stay under a quarter), then a fifth of that apart
@@ -153,18 +141,7 @@ fn coherent_period(times: &[f64], rough_period: f64) -> f64 {
         let resolution = period * period / span;
         let search = |from: f64, to: f64, step: f64| {
             let trials = (((to - from) / step).ceil() as usize).clamp(2, 400);
-            let (mut best_p, mut best) = (period, f64::NEG_INFINITY);
-            for k in 0..=trials {
-                let p = from + (to - from) * k as f64 / trials as f64;
-                if p <= 0.0 {
-                    continue;
-                }
-                let r = coherence(p);
-                if r > best {
-                    (best_p, best) = (p, r);
-                }
-            }
-            best_p
+            most_coherent(head, from, to, trials).unwrap_or(period)
         };
         let coarse = search(period - half_width, period + half_width, resolution);
         period = search(coarse - resolution, coarse + resolution, 0.2 * resolution);
@@ -174,6 +151,42 @@ fn coherent_period(times: &[f64], rough_period: f64) -> f64 {
         }
         window *= 16;
     }
+}
+
+/// Of `trials + 1` trial periods from `from` to `to` (evenly spaced in frequency), the one whose
+/// phases of `head` (relative to its first timestamp) are most coherent; `None` for an empty or
+/// non-positive range.
+///
+/// Each timestamp's phasor at the next trial frequency is its phasor at this one turned by a fixed
+/// step, so a timestamp costs two `sin_cos` and one complex product per trial instead of a
+/// `sin_cos` per trial (this search was two thirds of `info` on a 15-min timed file). The
+/// rotations carry at most 400 roundings: 1e-13 of a phasor, far below what moves the peak.
+fn most_coherent(head: &[f64], from: f64, to: f64, trials: usize) -> Option<f64> {
+    if !(from > 0.0 && to > from) || head.is_empty() {
+        return None;
+    }
+    let t0 = head[0];
+    let (low, high) = (std::f64::consts::TAU / to, std::f64::consts::TAU / from);
+    let step = (high - low) / trials as f64;
+    let mut sums = vec![(0.0f64, 0.0f64); trials + 1];
+    for &t in head {
+        // sin and cos are periodic: no reduction modulo the period is needed (the angle reaches
+        // 2π·65 536 at most, where f64 keeps it to 1e-10 rad).
+        let dt = t - t0;
+        let (mut s, mut c) = (dt * low).sin_cos();
+        let (rs, rc) = (dt * step).sin_cos();
+        for sum in sums.iter_mut() {
+            sum.0 += s;
+            sum.1 += c;
+            (s, c) = (s * rc + c * rs, c * rc - s * rs);
+        }
+    }
+    let (best, _) = sums
+        .iter()
+        .enumerate()
+        .map(|(k, (s, c))| (k, s * s + c * c))
+        .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+    Some(std::f64::consts::TAU / (low + step * best as f64))
 }
 
 /// One pass of the tracker over `times` at `rough_period`: the least-squares slope of the
@@ -248,5 +261,41 @@ mod tests {
         assert_eq!(steps, 1);
         assert!((deviation - 0.45).abs() < 0.05, "{deviation}");
         assert_eq!(tracker.place(times[1]).0, 10);
+    }
+
+    #[test]
+    fn the_turned_phasors_pick_the_directly_computed_best() {
+        // Trial by trial, the coherence with each phasor from its own sin_cos; the rotations
+        // must pick the same trial, over windows up to the longest (2^16 timestamps, 400 trials).
+        for (n, jitter, trials) in [(256, 0.4, 12), (4096, 0.1, 40), (65536, 0.3, 400)] {
+            let period = 0.0025 * (1.0 - 150e-6);
+            let times: Vec<f64> = (0..n)
+                .map(|i| {
+                    let u = ((i * 7919 + 13) % 1009) as f64 / 504.5 - 1.0;
+                    1e5 + i as f64 * period + jitter * period * u
+                })
+                .collect();
+            let (from, to) = (0.0025 * 0.999, 0.0025 * 1.001);
+            let (low, high) = (std::f64::consts::TAU / to, std::f64::consts::TAU / from);
+            let direct = (0..=trials)
+                .map(|k| {
+                    let scale = low + (high - low) / trials as f64 * k as f64;
+                    let (s, c) = times.iter().fold((0.0, 0.0), |(s, c), &t| {
+                        let (a, b) = ((t - times[0]) * scale).sin_cos();
+                        (s + a, c + b)
+                    });
+                    (std::f64::consts::TAU / scale, s * s + c * c)
+                })
+                .fold(
+                    (0.0, f64::NEG_INFINITY),
+                    |a, b| if b.1 > a.1 { b } else { a },
+                );
+            let turned = most_coherent(&times, from, to, trials).unwrap();
+            assert!(
+                (turned / direct.0 - 1.0).abs() < 1e-14,
+                "{n}: {turned} {direct:?}"
+            );
+        }
+        assert_eq!(most_coherent(&[1.0, 2.0], 0.0, 1.0, 4), None);
     }
 }
