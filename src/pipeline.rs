@@ -13,7 +13,7 @@ use serde::Serialize;
 use crate::analysis::{self, ChannelAnalysis, ChannelInput};
 use crate::avar::{AvarError, Confidence, Statistic, TauGrid};
 use crate::effects::{AuxSeries, LoopConfig};
-use crate::estimate::Backend;
+use crate::estimate::{Backend, Samples};
 use crate::io::{self, InputError, OpenOptions, Recording};
 use crate::model::{FitOptions, Sensor};
 use crate::psd::{log_bin, PsdError, WelchPlan};
@@ -495,22 +495,13 @@ pub fn factors_for_seconds(taus_s: &[f64], rate_hz: f64) -> Vec<u64> {
     m
 }
 
-/// The samples the Allan statistics read: borrowed when the fit reads them afterwards.
-enum Samples<'a> {
-    Borrowed(&'a [Vec<f64>]),
-    Owned(Vec<Vec<f64>>),
-}
-
 fn deviations(
     recording: &Recording,
-    mut series: Samples,
+    series: Samples,
     work: &AvarWork,
     backend: &dyn Backend,
 ) -> Result<Vec<ChannelDeviations>, Error> {
-    let n = match &series {
-        Samples::Borrowed(s) => s.first().map_or(0, Vec::len),
-        Samples::Owned(s) => s.first().map_or(0, Vec::len),
-    };
+    let n = series.channels().first().map_or(0, Vec::len);
     let grid = match &work.taus {
         TauSpec::Grid(g) => g.clone(),
         TauSpec::Seconds(t) => TauGrid::Explicit(factors_for_seconds(t, recording.rate_hz)),
@@ -523,16 +514,14 @@ fn deviations(
             statistics: Vec::new(),
         })
         .collect();
-    for (k, &statistic) in work.statistics.iter().enumerate() {
-        let last = k + 1 == work.statistics.len();
-        let (rate, c) = (recording.rate_hz, work.confidence);
-        let results = match &mut series {
-            Samples::Owned(s) if last => {
-                backend.deviations_consuming(std::mem::take(s), rate, &grid, statistic, c)
-            }
-            Samples::Owned(s) => backend.deviations(s, rate, &grid, statistic, c),
-            Samples::Borrowed(s) => backend.deviations(s, rate, &grid, statistic, c),
-        };
+    let all = backend.statistics(
+        series,
+        recording.rate_hz,
+        &grid,
+        &work.statistics,
+        work.confidence,
+    );
+    for (&statistic, results) in work.statistics.iter().zip(all) {
         for (slot, result) in out.iter_mut().zip(results) {
             // An explicit τ the recording cannot support is an error naming it, not a silently
             // shorter list (the Allan module checks; here it gets the file's name).

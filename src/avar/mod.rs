@@ -56,7 +56,8 @@ mod variances;
 
 pub use crate::memory::release_cached_memory;
 pub use compute::{
-    checked_factors, compute, compute_owned, compute_statistics, deviations_from_variances,
+    checked_factors, compute, compute_each, compute_owned, compute_statistics,
+    deviations_from_variances,
 };
 pub use confidence::{chi2_quantile, variance_bounds, Confidence, ONE_SIGMA};
 pub use deviations::Deviations;

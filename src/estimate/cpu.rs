@@ -1,6 +1,8 @@
 //! The CPU reference backend: realfft Welch and prefix-sum Allan variances, both parallel with rayon.
 
-use super::{Backend, BackendKind, WelchSink};
+use std::borrow::Cow;
+
+use super::{Backend, BackendKind, Samples, WelchSink};
 use crate::avar::{self, AvarError, Confidence, Deviations, Statistic, TauGrid};
 use crate::psd::{Psd, PsdError, WelchAccumulator, WelchPlan};
 
@@ -49,17 +51,28 @@ impl Backend for CpuBackend {
             .collect()
     }
 
-    fn deviations_consuming(
+    fn statistics(
         &self,
-        channels: Vec<Vec<f64>>,
+        samples: Samples<'_>,
         rate_hz: f64,
         grid: &TauGrid,
-        statistic: Statistic,
+        statistics: &[Statistic],
         confidence: Confidence,
-    ) -> Vec<Result<Deviations, AvarError>> {
-        channels
-            .into_iter()
-            .map(|y| avar::compute_owned(y, rate_hz, grid, statistic, confidence))
-            .collect()
+    ) -> Vec<Vec<Result<Deviations, AvarError>>> {
+        // Channel by channel as above, every statistic from one prefix-sum array.
+        let each = |y: Cow<'_, [f64]>| avar::compute_each(y, rate_hz, grid, statistics, confidence);
+        let per_channel: Vec<Vec<Result<Deviations, AvarError>>> = match samples {
+            Samples::Borrowed(channels) => {
+                channels.iter().map(|y| each(Cow::Borrowed(y))).collect()
+            }
+            Samples::Owned(channels) => channels.into_iter().map(|y| each(Cow::Owned(y))).collect(),
+        };
+        let mut by_statistic: Vec<Vec<_>> = statistics.iter().map(|_| Vec::new()).collect();
+        for results in per_channel {
+            for (slot, result) in by_statistic.iter_mut().zip(results) {
+                slot.push(result);
+            }
+        }
+        by_statistic
     }
 }

@@ -58,6 +58,24 @@ pub trait WelchSink: Send {
     fn peak_buffered_samples(&self) -> usize;
 }
 
+/// The samples of a recording's channels as the Allan statistics get them: borrowed when the
+/// caller reads them afterwards (the fit), owned when it does not.
+#[derive(Debug)]
+pub enum Samples<'a> {
+    Borrowed(&'a [Vec<f64>]),
+    Owned(Vec<Vec<f64>>),
+}
+
+impl Samples<'_> {
+    /// The channels, however held.
+    pub fn channels(&self) -> &[Vec<f64>] {
+        match self {
+            Samples::Borrowed(c) => c,
+            Samples::Owned(c) => c,
+        }
+    }
+}
+
 /// An estimator backend.
 pub trait Backend: Send + Sync {
     fn kind(&self) -> BackendKind;
@@ -79,17 +97,23 @@ pub trait Backend: Send + Sync {
         statistic: Statistic,
         confidence: Confidence,
     ) -> Vec<Result<Deviations, AvarError>>;
-    /// [`Backend::deviations`] of channels the caller no longer needs: a backend may build its
-    /// working arrays in their buffers (the CPU's prefix sums, in place), which saves the first
-    /// touch of one record-length buffer a channel. Results identical to [`Backend::deviations`].
-    fn deviations_consuming(
+    /// Each of `statistics` of each channel, as `[statistic][channel]`, every entry what
+    /// [`Backend::deviations`] gives for it. Samples the caller hands over ([`Samples::Owned`]) may
+    /// become a backend's working arrays (the CPU's prefix sums, built in place: no second
+    /// record-length buffer to fault in). The default asks [`Backend::deviations`] once per
+    /// statistic.
+    fn statistics(
         &self,
-        channels: Vec<Vec<f64>>,
+        samples: Samples<'_>,
         rate_hz: f64,
         grid: &TauGrid,
-        statistic: Statistic,
+        statistics: &[Statistic],
         confidence: Confidence,
-    ) -> Vec<Result<Deviations, AvarError>> {
-        self.deviations(&channels, rate_hz, grid, statistic, confidence)
+    ) -> Vec<Vec<Result<Deviations, AvarError>>> {
+        let channels = samples.channels();
+        statistics
+            .iter()
+            .map(|&statistic| self.deviations(channels, rate_hz, grid, statistic, confidence))
+            .collect()
     }
 }
