@@ -238,22 +238,20 @@ pub fn run(
         _ => None,
     };
 
-    // Without a fit the samples are not needed after the Allan statistics: the last one builds
-    // its prefix sums in their buffers.
-    let (series, samples_for_avar) = match work.fit {
+    // Without a fit the samples are not needed after the Allan statistics: they are handed over,
+    // and each channel's prefix sums are built in its samples' buffer.
+    let (series, handed_over) = match work.fit {
         Some(_) => (series, None),
         None => (None, series),
     };
-    let avar: Option<Vec<ChannelDeviations>> = match (&series, samples_for_avar, &work.avar) {
-        (Some(series), _, Some(a)) => {
+    let samples = match (&series, handed_over) {
+        (Some(kept), _) => Some(Samples::Borrowed(kept)),
+        (None, owned) => owned.map(Samples::Owned),
+    };
+    let avar: Option<Vec<ChannelDeviations>> = match (samples, &work.avar) {
+        (Some(samples), Some(a)) => {
             let t = Instant::now();
-            let out = deviations(&recording, Samples::Borrowed(series), a, backend)?;
-            timings.avar_s = t.elapsed().as_secs_f64();
-            Some(out)
-        }
-        (None, Some(series), Some(a)) => {
-            let t = Instant::now();
-            let out = deviations(&recording, Samples::Owned(series), a, backend)?;
+            let out = deviations(&recording, samples, a, backend)?;
             timings.avar_s = t.elapsed().as_secs_f64();
             Some(out)
         }
