@@ -1,6 +1,8 @@
 //! The entry points: validate, build S once, run the estimator, then identify the noise and the
 //! confidence interval at every τ.
 
+use std::borrow::Cow;
+
 use rayon::prelude::*;
 
 use super::confidence::variance_bounds;
@@ -38,36 +40,12 @@ pub fn compute(
     stat: Statistic,
     conf: Confidence,
 ) -> Result<Deviations, AvarError> {
-    let mut all = compute_statistics(y, rate_hz, grid, &[stat], conf)?;
-    Ok(all.remove(0))
+    only(compute_each(Cow::Borrowed(y), rate_hz, grid, &[stat], conf))
 }
 
-/// Like [`compute`] for several statistics of the same data, building the prefix sums (the only
-/// O(N) memory) once. Results are in the order of `stats`.
-pub fn compute_statistics(
-    y: &[f64],
-    rate_hz: f64,
-    grid: &TauGrid,
-    stats: &[Statistic],
-    conf: Confidence,
-) -> Result<Vec<Deviations>, AvarError> {
-    if !(rate_hz.is_finite() && rate_hz > 0.0) {
-        return Err(AvarError::InvalidRate(rate_hz));
-    }
-    let p = conf.probability()?;
-    let n = y.len();
-    let mut plans = Vec::with_capacity(stats.len());
-    for &stat in stats {
-        plans.push((stat, checked_factors(grid, n, stat)?));
-    }
-    let ps = PrefixSums::new(y)?;
-    plans
-        .into_iter()
-        .map(|(stat, ms)| {
-            let variance = variances(&ps, &ms, stat);
-            assemble(&ps, rate_hz, ms, variance, stat, p)
-        })
-        .collect()
+/// The one result of a one-statistic [`compute_each`].
+fn only(mut results: Vec<Result<Deviations, AvarError>>) -> Result<Deviations, AvarError> {
+    results.pop().expect("one statistic asked, one result")
 }
 
 /// [`compute`] of each of `stats` on one channel, with its prefix sums built once — in `y`'s own
@@ -78,7 +56,7 @@ pub fn compute_statistics(
 /// **Why.** `avar --stat oadev,mdev,ohdev,…` built S once per statistic: on 10⁷ samples each
 /// build is a pass over 76 MB, and the copy the borrowed path makes.
 pub fn compute_each(
-    y: std::borrow::Cow<'_, [f64]>,
+    y: Cow<'_, [f64]>,
     rate_hz: f64,
     grid: &TauGrid,
     stats: &[Statistic],
@@ -96,19 +74,17 @@ pub fn compute_each(
         .iter()
         .map(|&stat| checked_factors(grid, y.len(), stat))
         .collect();
-    let ps = if plans.iter().any(Result::is_ok) {
-        match y {
-            std::borrow::Cow::Owned(samples) => PrefixSums::from_samples(samples),
-            std::borrow::Cow::Borrowed(samples) => PrefixSums::new(samples),
-        }
-    } else {
-        Ok(PrefixSums::new(&[]).expect("no samples, no error"))
-    };
+    // S only where some statistic can use it (a record too short for all of them is not read).
+    let ps = plans.iter().any(Result::is_ok).then(|| match y {
+        Cow::Owned(samples) => PrefixSums::from_samples(samples),
+        Cow::Borrowed(samples) => PrefixSums::new(samples),
+    });
     stats
         .iter()
         .zip(plans)
         .map(|(&stat, plan)| {
             let ms = plan?;
+            let ps = ps.as_ref().expect("built where a plan is ok");
             let ps = ps.as_ref().map_err(Clone::clone)?;
             let variance = variances(ps, &ms, stat);
             assemble(ps, rate_hz, ms, variance, stat, p)
@@ -129,14 +105,7 @@ pub fn compute_owned(
     stat: Statistic,
     conf: Confidence,
 ) -> Result<Deviations, AvarError> {
-    if !(rate_hz.is_finite() && rate_hz > 0.0) {
-        return Err(AvarError::InvalidRate(rate_hz));
-    }
-    let p = conf.probability()?;
-    let ms = checked_factors(grid, y.len(), stat)?;
-    let ps = PrefixSums::from_samples(y)?;
-    let variance = variances(&ps, &ms, stat);
-    assemble(&ps, rate_hz, ms, variance, stat, p)
+    only(compute_each(Cow::Owned(y), rate_hz, grid, &[stat], conf))
 }
 
 /// Completes variances computed elsewhere (another backend, e.g. a GPU) into [`Deviations`]

@@ -8,7 +8,8 @@
 //!
 //! - [`compute`] runs one [`Statistic`] (OADEV, ADEV, MDEV, HDEV, OHDEV) on a [`TauGrid`] and
 //!   returns [`Deviations`]: variances, the identified noise exponent, EDF and a chi-square
-//!   confidence interval at every τ. [`compute_statistics`] does several on the same data.
+//!   confidence interval at every τ. [`compute_each`] does several on the same data from one
+//!   prefix-sum array, each result what [`compute`] gives for it alone.
 //! - The numbers agree with NIST SP 1065's published NBS14 values, with Stable32 (PHASE.DAT and an
 //!   OCXO recording, deviations and confidence bounds) and with allantools (1e-10 on random data);
 //!   see `tests/integration/avar`.
@@ -56,8 +57,7 @@ mod variances;
 
 pub use crate::memory::release_cached_memory;
 pub use compute::{
-    checked_factors, compute, compute_each, compute_owned, compute_statistics,
-    deviations_from_variances,
+    checked_factors, compute, compute_each, compute_owned, deviations_from_variances,
 };
 pub use confidence::{chi2_quantile, variance_bounds, Confidence, ONE_SIGMA};
 pub use deviations::Deviations;

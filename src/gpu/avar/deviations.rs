@@ -52,7 +52,8 @@ pub(crate) fn deviations(
 /// A channel ready for the GPU (prefix sums, factors) or the error the CPU path would give for it.
 type Prepared = Result<(PrefixSums, Vec<u64>), AvarError>;
 
-/// `avar::compute_statistics`' checks, in its order: rate, confidence, grid factors, samples.
+/// `avar::compute_each`'s checks for one statistic, in its order: rate, confidence, grid
+/// factors, samples.
 fn prepare(
     y: &[f64],
     rate_hz: f64,
