@@ -1,7 +1,7 @@
 //! Running a validated job over its files, reporting progress and writing the outputs.
 
 use std::io::{IsTerminal, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use imunoise::estimate::{Backend, CpuBackend};
@@ -12,7 +12,7 @@ use imunoise::report::format::{count, count_as, duration, rate_hz, throughput};
 use imunoise::report::{self, EffectUnits, OutputError};
 use indicatif::{ProgressBar, ProgressState, ProgressStyle};
 
-use super::backend::{gpu_failure, Chatter};
+use super::backend::{gpu_failure, Chatter, Chosen, Workload};
 use super::config::{BackendChoice, Job};
 
 /// Exit codes (as ripgrep): all fine, some inputs failed, usage or fatal error.
@@ -134,33 +134,42 @@ fn summary_line(r: &FileResult) -> String {
 }
 
 /// The backend asked for. `info` estimates nothing, so it never opens a GPU.
-fn backend(job: &Job) -> Result<Box<dyn Backend>, GpuError> {
+fn backend(job: &Job) -> Result<Chosen, GpuError> {
     let estimates = job.work.welch.is_some() || job.work.avar.is_some();
     if !estimates {
-        return Ok(Box::new(CpuBackend));
+        return Ok(Chosen {
+            backend: Box::new(CpuBackend),
+            opening: false,
+        });
     }
     let chatter = Chatter {
         verbose: job.output.verbose,
         quiet: job.output.quiet,
     };
-    super::backend::choose(job.backend, chatter)
+    let workload = Workload::of(job.files.iter().map(PathBuf::as_path), &job.work);
+    super::backend::choose(job.backend, chatter, workload)
 }
 
 /// Runs the job; returns the process exit code.
 pub fn run(job: &Job) -> i32 {
     let started = Instant::now();
-    let backend = match backend(job) {
+    let Chosen { backend, opening } = match backend(job) {
         Ok(b) => b,
         Err(e) => {
             eprintln!("imunoise: {}", gpu_failure(&e, job.output.verbose));
             return EXIT_FATAL;
         }
     };
+    // The backend lives as long as the process: closing a GPU device took 72–102 ms on an H200
+    // host (see `backend`'s module docs), for nothing when the process ends next.
+    let backend: &dyn Backend = Box::leak(backend);
     let estimates = job.work.welch.is_some() || job.work.avar.is_some();
-    if !job.output.quiet && estimates && job.backend != BackendChoice::Cpu {
+    // A backend still opening is named once the first file is done (naming it waits for it).
+    let mut unnamed = !job.output.quiet && estimates && job.backend != BackendChoice::Cpu;
+    if unnamed && !opening {
         eprintln!("imunoise: backend {}", backend.describe());
+        unnamed = false;
     }
-    let backend = backend.as_ref();
     let bar = Bar::new(job.files.len(), job.output.quiet);
     // `info` prints a table on stdout and writes files only into a folder asked for with -o.
     let info_table = job.command == "info" && !job.output.json_stdout;
@@ -179,7 +188,12 @@ pub fn run(job: &Job) -> i32 {
     let mut entries = Vec::new();
     let mut failures: Vec<(String, String)> = Vec::new();
     for path in &job.files {
-        match pipeline::run(path, &job.inputs, &job.work, backend, &bar) {
+        let result = pipeline::run(path, &job.inputs, &job.work, backend, &bar);
+        if unnamed {
+            bar.line(&format!("imunoise: backend {}", backend.describe()));
+            unnamed = false;
+        }
+        match result {
             Ok(r) => {
                 if info_table {
                     // The table is the per-file line; stdout closed (`| head`) ends the printing.

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use clap::{Args, Parser};
+use imunoise::estimate::Backend;
 use imunoise::fleet::{
     self, collect_inputs, fleet_step, plot_after_fleet, BatchConfig, FailOn, FileOutcome, Input,
     Layout, Lock, Observer, PlotPolicy, Shard, Spec, Status,
@@ -17,7 +18,7 @@ use serde_json::json;
 use super::args::{
     AnalyzeArgs, AvarFlags, BackendArgs, Cli, Command, FitFlags, InputArgs, OutputArgs, WelchArgs,
 };
-use super::backend::{gpu_failure, Chatter};
+use super::backend::{gpu_failure, Chatter, Workload};
 use super::config::{self, BackendChoice, UsageError};
 use super::run::{EXIT_FATAL, EXIT_OK, EXIT_SOME_FAILED};
 
@@ -433,8 +434,18 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
         verbose: job.verbose,
         quiet,
     };
-    let backend = super::backend::choose(job.analysis.backend, chatter)
-        .map_err(|e| gpu_failure(&e, job.verbose))?;
+    let mine_paths = inputs
+        .iter()
+        .filter(|i| i.in_shard(job.shard))
+        .map(|i| i.path.as_path());
+    let workload = Workload::of(mine_paths, &job.analysis.work);
+    // Named at once below, so a GPU still opening is waited for here; the process keeps it (see
+    // `backend`'s module docs).
+    let backend: &dyn Backend = Box::leak(
+        super::backend::choose(job.analysis.backend, chatter, workload)
+            .map_err(|e| gpu_failure(&e, job.verbose))?
+            .backend,
+    );
     if !quiet && job.analysis.backend != BackendChoice::Cpu {
         eprintln!("imunoise: backend {}", backend.describe());
     }
@@ -460,7 +471,7 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
         spec: &job.spec,
         memory_budget: job.memory_budget,
     };
-    let batch = fleet::run_batch(&cfg, &inputs, backend.as_ref(), &report);
+    let batch = fleet::run_batch(&cfg, &inputs, backend, &report);
     if let Some(b) = &report.bar {
         b.finish_and_clear();
     }
@@ -495,7 +506,7 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
         job.plots,
         &job.analysis.inputs,
         &job.analysis.work,
-        backend.as_ref(),
+        backend,
     );
     drop(fleet_lock);
     for (key, e) in &plotted.failed {

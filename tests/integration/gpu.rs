@@ -1400,6 +1400,20 @@ mod fallback {
         );
     }
 
+    /// Every pipeline a run may use builds up front (as `--backend auto` does beside the
+    /// reading), on a device with f64 and on one without, and leaves the context healthy.
+    #[test]
+    fn every_pipeline_prepares_up_front() {
+        for allow_f64 in [true, false] {
+            let Some(ctx) = fresh(|_| {}, allow_f64) else {
+                return;
+            };
+            ctx.prepare_pipelines()
+                .unwrap_or_else(|e| panic!("f64 {allow_f64}: {e}"));
+            assert!(ctx.failure().is_none());
+        }
+    }
+
     #[test]
     fn describe_names_the_adapter() {
         let ctx = gpu!();
