@@ -318,8 +318,10 @@ pub struct AvarFlags {
 #[derive(Debug, Args)]
 #[command(next_help_heading = "Backend")]
 pub struct BackendArgs {
-    /// auto: a GPU when one is found (named on stderr and in the outputs), else the CPU; gpu: a GPU
-    /// or an error (exit 2); cpu: the CPU reference path. Options the GPU path lacks (median
+    /// auto: the CPU, unless the run computes the OADEV beyond octave τ on an input of 256 MiB or
+    /// more and a hardware GPU is found (then the GPU, named on stderr and in the outputs; below
+    /// that a GPU's fixed cost outweighs its gain; -v says why); gpu: a GPU or an error (exit 2);
+    /// cpu: the CPU reference path. Options the GPU path lacks (median
     /// averaging, non-power-of-two nfft, statistics other than oadev) run on the CPU and the outputs
     /// say so; a GPU that fails mid-run is replaced by the CPU with a warning.
     #[arg(long, default_value = "auto", value_name = "BACKEND")]
