@@ -439,18 +439,33 @@ pub fn effect_line(e: &Effect, units: &EffectUnits) -> String {
             s.freq_hi,
             v.interval(s.amplitude, s.amplitude_lo, s.amplitude_hi)
         ),
-        Effect::Narrowband(nb) => format!(
-            "narrow band (a wandering line or a peak) at {:.4} Hz [{:.4}, {:.4}], width {} Hz [{}, {}], rms {} (power {}; a coherent sinusoid explains {:.0} %)",
-            nb.freq_hz,
-            nb.freq_lo_hz,
-            nb.freq_hi_hz,
-            sig4(nb.width_hz),
-            sig4(nb.width_lo_hz),
-            sig4(nb.width_hi_hz),
-            v.interval(nb.power.sqrt(), nb.power_lo.sqrt(), nb.power_hi.sqrt()),
-            Shown::squared(units.value).one(nb.power),
-            100.0 * nb.coherent_share
-        ),
+        Effect::Narrowband(nb) => {
+            let band = format!(
+                "narrow band (a wandering line or a peak) at {:.4} Hz [{:.4}, {:.4}], width {} Hz [{}, {}], rms {} (power {}; a coherent sinusoid explains {:.0} %)",
+                nb.freq_hz,
+                nb.freq_lo_hz,
+                nb.freq_hi_hz,
+                sig4(nb.width_hz),
+                sig4(nb.width_lo_hz),
+                sig4(nb.width_hi_hz),
+                v.interval(nb.power.sqrt(), nb.power_lo.sqrt(), nb.power_hi.sqrt()),
+                Shown::squared(units.value).one(nb.power),
+                100.0 * nb.coherent_share
+            );
+            match &nb.resonance {
+                None => band,
+                Some(r) => format!(
+                    "{band}; as a resonance over the extrapolated floor: f₀ {:.3} Hz [{:.3}, {:.3}], Q {:.1} [{:.1}, {:.1}], σ before the sensor's low-pass {}",
+                    r.f0_hz,
+                    r.f0_lo_hz,
+                    r.f0_hi_hz,
+                    r.q,
+                    r.q_lo,
+                    r.q_hi,
+                    v.interval(r.sigma, r.sigma_lo, r.sigma_hi)
+                ),
+            }
+        }
         Effect::Resonance {
             f0_hz,
             f0_lo,

@@ -66,8 +66,11 @@ use super::time::{
     StepMethod,
 };
 
+mod peak;
 mod slow_candidates;
 mod stochastic;
+
+pub use peak::{fit_peak_resonance, PeakResonance};
 
 use slow_candidates::slow_candidates;
 use stochastic::{gauss_markov_candidate, resonance_candidate};
@@ -1069,12 +1072,23 @@ fn propose(
                 intervals_from_parts(&mut nb, y, fs, &cfg.welch, &local, p);
                 nb.coherent_share = line_share.min(1.0);
                 let clean = remove_narrowband(y, fs, &nb, &local, state.psd.nperseg);
-                // A resonance's f₀, Q and σ are fitted only inside the fit band, where the model
-                // is the fit's own; beyond it the peak is measured as a band.
+                // Inside the fit band a resonance is a column of the fit (`resonance_candidate`,
+                // below); beyond it the model is an extrapolation, so the peak is measured as a
+                // band and read as a resonance over that floor held fixed ([`peak`]).
                 let beyond = if peak {
+                    let gain = |f: f64| lowpass.map_or(1.0, |lp| lp.power_gain(f));
+                    nb.resonance =
+                        fit_peak_resonance(&state.psd, &local, &gain, e.f_lo_hz, e.f_hi_hz, z);
+                    let reading = nb.resonance.as_ref().map_or(String::new(), |r| {
+                        format!(
+                            "; read as a resonance over the extrapolated floor: f₀ {:.3} Hz, Q \
+                             {:.1}, σ {:.3e} (deviance {:.2} a bin)",
+                            r.f0_hz, r.q, r.sigma, r.deviance_per_bin
+                        )
+                    });
                     format!(
                         "; a peak beyond the fit band (which ends at {fit_edge:.3} Hz): measured \
-                         as a band (centre, width, power), not fitted as a resonance"
+                         as a band (centre, width, power){reading}"
                     )
                 } else {
                     String::new()

@@ -64,6 +64,10 @@ pub struct NarrowBand {
     /// Share of the power one coherent sinusoid fitted on the whole record explains.
     pub coherent_share: f64,
     pub delta_bic: f64,
+    /// A peak beyond the fit band read as a resonance (f₀, Q, σ with profile intervals) over the
+    /// extrapolated floor; `None` for a band inside the fit band or a narrow line.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub resonance: Option<crate::effects::closing::PeakResonance>,
 }
 
 /// Contiguous sub-records whose spectra give the centre's and the width's intervals
@@ -272,6 +276,7 @@ pub fn measure_narrowband(
         equivalent_amplitude: (2.0 * power).sqrt(),
         coherent_share: 0.0,
         delta_bic: 3.0 * (searched.max(2) as f64).ln() - g / BIN_CORRELATION,
+        resonance: None,
     })
 }
 
