@@ -344,9 +344,10 @@ pub const PLAUSIBLE_RATE_HZ: (f64, f64) = (1.0, 1e4);
 /// units and, when the file or `--rate` gives one, the sample rate.
 ///
 /// Rules, in order: a float column holding fractional values is seconds, the long-standing
-/// convention (with a note when that rate is implausible); a float column of whole numbers in a
-/// typed format (Arrow, Parquet) is seconds too, since its writer chose floats; otherwise a rate from
-/// elsewhere picks the unit that agrees with it;
+/// convention, and so is a float column of whole numbers in a typed format (Arrow, Parquet), since
+/// its writer chose floats, as long as seconds give a plausible rate or agree with a stated one;
+/// otherwise a rate from elsewhere picks the unit that agrees with it, and a float column with
+/// none is refused;
 /// otherwise the unit is inferred only when exactly one of s, ms, us, ns gives a rate in
 /// [`PLAUSIBLE_RATE_HZ`]. Anything else is refused with a message that names `--time-unit`.
 /// Returns the spec with its unit settled and, when inferred, a note saying so.
@@ -389,18 +390,26 @@ pub fn resolve_time_unit(
     }
     if is_float && (fractional || typed_format) {
         // Fractional values are seconds, and so are floats in a typed format, whose writer chose
-        // floats over integer ticks; an implausible rate is said, not
-        // reinterpreted (20 kHz in seconds would otherwise become 20 Hz in milliseconds).
+        // floats over integer ticks, where that gives a plausible rate or agrees with a stated
+        // one. Otherwise the unit is not guessed either way: floats in milliseconds read as
+        // seconds made every density 1000× too high (N 31.6×, printed with a note only), and
+        // reading a 20 kHz record in seconds as milliseconds would make it 20 Hz. A stated rate
+        // that agrees with another unit settles it (below); without one the file is refused.
         let r = rate(TimeUnit::S);
-        let note = (r < PLAUSIBLE_RATE_HZ.0 || r > PLAUSIBLE_RATE_HZ.1).then(|| {
-            format!(
-                "time column {:?} read as seconds gives {}, outside the usual IMU rates; give \
-                 --time-unit if it is not in seconds",
-                spec.name,
-                rate_text(r)
-            )
-        });
-        return Ok((settle(1.0, TimeUnitSource::FloatSeconds), note));
+        let plausible = (PLAUSIBLE_RATE_HZ.0..=PLAUSIBLE_RATE_HZ.1).contains(&r);
+        let stated = known_rate_hz.is_some_and(|k| (r / k - 1.0).abs() <= super::RATE_TOLERANCE);
+        if plausible || stated {
+            return Ok((settle(1.0, TimeUnitSource::FloatSeconds), None));
+        }
+        if known_rate_hz.is_none() {
+            return Err(refuse(format!(
+                "the time column holds floats with no unit, and read as seconds it gives {}, \
+                 outside the usual IMU rates ({} to {} Hz)",
+                rate_text(r),
+                PLAUSIBLE_RATE_HZ.0,
+                PLAUSIBLE_RATE_HZ.1
+            )));
+        }
     }
     if let Some(known) = known_rate_hz {
         if let Some(&u) = TimeUnit::ALL

@@ -73,6 +73,63 @@ fn integer_milliseconds_in_csv_are_inferred_and_said_so() {
     assert!((rec.rate_hz - 100.0).abs() < 1e-9);
 }
 
+/// Float times in milliseconds (400 Hz: 0.0, 2.5, 5.0, …) read as seconds give 0.4 Hz: refused,
+/// naming the flag and the rates each unit implies, where it once ran on with a note and printed
+/// every density 1000× too high. A stated rate or the flag settles it; float seconds at a
+/// plausible rate stay seconds without a word.
+#[test]
+fn float_milliseconds_are_refused_not_read_as_seconds() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("float_ms.csv");
+    let n = 2000;
+    let mut text = String::from("t,gx [deg/s]\n");
+    for (i, v) in noise(n, 4).iter().enumerate() {
+        text.push_str(&format!("{:.1},{v:?}\n", 2.5 * i as f64));
+    }
+    std::fs::write(&p, text).unwrap();
+    let err = io::open(&p, &OpenOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("float_ms.csv")
+            && err.contains("\"t\"")
+            && err.contains("--time-unit")
+            && err.contains("0.4 Hz")
+            && err.contains("ms: 400 Hz"),
+        "{err}"
+    );
+    let rec = open_with(&p, ColumnOverrides::default(), Some(400.0));
+    assert_eq!(rec.time.as_ref().unwrap().encoding.seconds_per_unit(), 1e-3);
+    assert!((rec.rate_hz - 400.0).abs() < 1e-6, "{}", rec.rate_hz);
+    let rec = open_with(
+        &p,
+        ColumnOverrides {
+            time_unit: Some(TimeUnit::Ms),
+            ..Default::default()
+        },
+        None,
+    );
+    assert!((rec.rate_hz - 400.0).abs() < 1e-6, "{}", rec.rate_hz);
+    // Seconds at 400 Hz: read as seconds, no note.
+    let q = dir.path().join("float_s.csv");
+    let mut text = String::from("t,gx [deg/s]\n");
+    for (i, v) in noise(n, 5).iter().enumerate() {
+        text.push_str(&format!("{:.4},{v:?}\n", 0.0025 * i as f64));
+    }
+    std::fs::write(&q, text).unwrap();
+    let rec = open_with(&q, ColumnOverrides::default(), None);
+    assert!((rec.rate_hz - 400.0).abs() < 1e-6, "{}", rec.rate_hz);
+    assert_eq!(
+        rec.time.as_ref().unwrap().unit_source,
+        TimeUnitSource::FloatSeconds
+    );
+    assert!(
+        rec.notes.iter().all(|n| !n.contains("time column")),
+        "{:?}",
+        rec.notes
+    );
+}
+
 #[test]
 fn an_ambiguous_time_unit_is_refused_naming_the_flag_and_a_stated_rate_settles_it() {
     let dir = tempfile::tempdir().unwrap();
