@@ -7,7 +7,7 @@ use arrow_schema::{DataType, Field, Schema, TimeUnit as ArrowTimeUnit};
 use serde::Serialize;
 
 use super::InputError;
-use crate::units::{Kind, Unit};
+use crate::units::{Kind, Quantity, Unit};
 
 /// A column chosen for analysis, with everything needed to turn its raw values into SI.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -581,6 +581,42 @@ fn channel_spec(
             None => Kind::implied_by(unit),
         },
     };
+    // A gyro or accelerometer is fitted in its unit's SI form, so it needs a unit of its quantity:
+    // a kind given (by --kind or the field's metadata) to a column without one, or in counts, was
+    // fitted as if in rad/s or m/s² while the screen called it aux.
+    let wanted = match kind {
+        Kind::Gyro => Some(Quantity::AngularRate),
+        Kind::Accel => Some(Quantity::Acceleration),
+        _ => None,
+    };
+    if let Some(q) = wanted {
+        let (what, example, quantity) = if kind == Kind::Gyro {
+            ("a gyro", "deg/s", "an angular rate")
+        } else {
+            ("an accelerometer", "m/s^2", "an acceleration")
+        };
+        match unit {
+            Some(u) if u.quantity() == q => {}
+            Some(u) => {
+                let given = if u.quantity() == Quantity::Dimensionless {
+                    "counts (a plain number)".to_string()
+                } else {
+                    u.to_string()
+                };
+                return Err(bad(format!(
+                    "{what} channel in {given}, which is not {quantity}: give --unit \
+                     {name}=UNIT (e.g. {example}); raw counts need the sensor's scale (field \
+                     metadata scale with a physical unit)"
+                )));
+            }
+            None => {
+                return Err(bad(format!(
+                    "{what} channel needs a unit to be fitted in: give --unit {name}=UNIT (e.g. \
+                     {example})"
+                )))
+            }
+        }
+    }
     let scale = match meta.get("scale") {
         Some(text) => {
             let s: f64 = text

@@ -11,6 +11,7 @@ use arrow_schema::{DataType, Field, Schema};
 use imunoise::io::{self, ColumnOverrides, OpenOptions, TimeUnit, TimeUnitSource};
 use imunoise::pipeline::{self, Inputs, Silent, Work};
 use imunoise::quality::{ChannelVerdict, GapPolicy, QualityOptions};
+use imunoise::units::Kind;
 
 use super::support::*;
 
@@ -128,6 +129,65 @@ fn float_milliseconds_are_refused_not_read_as_seconds() {
         "{:?}",
         rec.notes
     );
+}
+
+/// A gyro or accelerometer kind given to a column without a unit, or in counts, is refused naming
+/// file, column and the flag: it was fitted as if in rad/s or m/s² (N 1730 m/s/√h from raw counts)
+/// while the screen called it aux. Without a kind the same columns are aux, as before.
+#[test]
+fn a_forced_inertial_kind_needs_a_physical_unit() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("counts.csv");
+    let mut text = String::from("t,accel_z [counts],gx\n");
+    for (i, v) in noise(500, 6).iter().enumerate() {
+        text.push_str(&format!("{:.2},{:.1},{v:?}\n", 0.01 * i as f64, 100.0 * v));
+    }
+    std::fs::write(&p, text).unwrap();
+    let kinds = |pairs: &[(&str, Kind)]| ColumnOverrides {
+        kinds: pairs.iter().map(|(c, k)| (c.to_string(), *k)).collect(),
+        ..Default::default()
+    };
+    let open = |o: ColumnOverrides| {
+        io::open(
+            &p,
+            &OpenOptions {
+                columns: o,
+                ..Default::default()
+            },
+        )
+    };
+    let err = open(kinds(&[("accel_z", Kind::Accel)]))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("counts.csv")
+            && err.contains("\"accel_z\"")
+            && err.contains("counts")
+            && err.contains("--unit accel_z="),
+        "{err}"
+    );
+    let err = open(kinds(&[("gx", Kind::Gyro)])).unwrap_err().to_string();
+    assert!(
+        err.contains("\"gx\"") && err.contains("--unit gx="),
+        "{err}"
+    );
+    let rec = open(ColumnOverrides::default()).unwrap();
+    assert!(
+        rec.channels.iter().all(|c| c.kind == Kind::Aux),
+        "{:?}",
+        rec.channels
+    );
+    // With a unit of its quantity the kind stands.
+    let rec = open(ColumnOverrides {
+        units: vec![("gx".into(), "deg/s".parse().unwrap())],
+        kinds: vec![("gx".into(), Kind::Gyro)],
+        ..Default::default()
+    })
+    .unwrap();
+    assert!(rec
+        .channels
+        .iter()
+        .any(|c| c.name == "gx" && c.kind == Kind::Gyro));
 }
 
 #[test]
