@@ -272,6 +272,7 @@ pub fn run(
                     },
                     confidence: a.confidence,
                     fit: opts.clone(),
+                    filled_s: quality.filled_stretches(),
                 }),
                 _ => None,
             };

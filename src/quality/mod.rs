@@ -164,6 +164,19 @@ impl QualityReport {
             .is_none_or(|c| c.verdicts.iter().all(ChannelVerdict::analysable))
     }
 
+    /// The stretches (start, end; seconds from the first sample) that `--on-gap fill` filled with
+    /// a straight line, as far as the gaps are listed ([`MAX_LISTED_GAPS`]); none under another
+    /// policy.
+    pub fn filled_stretches(&self) -> Vec<(f64, f64)> {
+        if self.gap_policy != GapPolicy::Fill {
+            return Vec::new();
+        }
+        self.gaps
+            .iter()
+            .map(|g| (g.after_s, g.after_s + g.duration_s))
+            .collect()
+    }
+
     /// One line per channel left out of the noise analysis for want of a unit (`name: why`): a
     /// batch's per-channel rows cover only gyro and accelerometer channels, so without this line
     /// an axis whose unit is missing would simply not be there.

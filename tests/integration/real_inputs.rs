@@ -836,3 +836,65 @@ fn a_sensor_with_everything_at_once_is_taken_apart() {
         }
     }
 }
+
+/// A gap filled with a straight line (`--on-gap fill`) is no measurement: the line between two
+/// single noisy samples sits off the local mean and carries no noise, and the loop took its ends
+/// for bias steps (±170 °/h on a 100-Hz gyro) and its span for an excursion, which then also
+/// weighed as a rival. Now no level change is claimed there: each is listed as rejected with the
+/// reason, and none is a rival.
+#[test]
+fn a_filled_gap_is_no_step_and_no_excursion() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("gap.csv");
+    let (fs, n, gap) = (100.0, 60_000, 30_000..30_500);
+    let white = noise(n, 21);
+    let walk = noise(n, 22);
+    let mut level = 0.0;
+    let mut text = String::from("t,gx [deg/s],gy [deg/s]\n");
+    for i in 0..n {
+        level += 2e-4 * walk[i];
+        if !gap.contains(&i) {
+            let v = 0.05 * white[i] + level;
+            let w = 0.05 * walk[(i + 7) % n] - level;
+            text.push_str(&format!("{:.2},{v:?},{w:?}\n", i as f64 / fs));
+        }
+    }
+    std::fs::write(&p, text).unwrap();
+    let out = imunoise(
+        &[
+            "analyze",
+            p.to_str().unwrap(),
+            "--on-gap",
+            "fill",
+            "--json",
+            "--backend",
+            "cpu",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for a in report["files"][0]["analysis"].as_array().unwrap() {
+        let r = &a["residual_loop"];
+        for s in r["steps"].as_array().unwrap() {
+            let kind = s["effect"]["kind"].as_str().unwrap_or("");
+            assert!(
+                kind != "step" && kind != "excursion",
+                "{}: {s}",
+                a["channel"]
+            );
+        }
+        let rival = r["rival"]["effect"]["kind"].as_str().unwrap_or("");
+        assert!(
+            rival != "step" && rival != "excursion",
+            "{}: {}",
+            a["channel"],
+            r["rival"]
+        );
+    }
+    let text = report.to_string();
+    assert!(
+        text.contains("at the gap filled with a straight line"),
+        "no level change was even tried at the fill"
+    );
+}

@@ -93,6 +93,9 @@ pub struct LoopConfig {
     pub taus: TauGrid,
     pub confidence: Confidence,
     pub fit: FitOptions,
+    /// Stretches of the series (start, end; seconds from its first sample) that the quality
+    /// screen filled with a straight line (`--on-gap fill`): no level change is claimed at them.
+    pub filled_s: Vec<(f64, f64)>,
 }
 
 impl LoopConfig {
@@ -105,8 +108,33 @@ impl LoopConfig {
             taus: TauGrid::Octave,
             confidence: Confidence::OneSigma,
             fit: FitOptions::default(),
+            filled_s: Vec::new(),
         }
     }
+}
+
+/// Seconds either side of a filled stretch within which a level change is taken for the fill's.
+const FILLED_MARGIN_S: f64 = 0.5;
+
+/// Why a step or an excursion is not proposed where it meets a stretch the quality screen filled
+/// with a straight line: a line drawn between two single noisy samples sits off the local mean by
+/// up to the white noise and carries none, so a step at its ends or an excursion over it was the
+/// fill's (a 5-s gap filled in a 100-Hz gyro gave two "steps" of ±170 °/h and an "excursion").
+fn on_filled_stretch(effect: &Effect, filled: &[(f64, f64)]) -> Option<String> {
+    let times: Vec<f64> = match effect {
+        Effect::Step(s) => vec![s.time_s],
+        Effect::Excursion(e) => vec![e.start_s, e.end_s],
+        _ => return None,
+    };
+    let (a, b) = filled.iter().copied().find(|&(a, b)| {
+        times
+            .iter()
+            .any(|&t| t >= a - FILLED_MARGIN_S && t <= b + FILLED_MARGIN_S)
+    })?;
+    Some(format!(
+        "not proposed: at the gap filled with a straight line from {a:.3} s to {b:.3} s \
+         (--on-gap fill), which is no measurement"
+    ))
 }
 
 /// A channel that may explain part of the signal (temperature, any aux channel).
@@ -591,7 +619,12 @@ fn run_loop(
     let mut end_ramp = None;
     while steps.len() < MAX_STEPS {
         let mut unexplained = Vec::new();
-        let candidates = propose(&state, fs, aux, cfg, p, &mut unexplained);
+        let mut candidates = propose(&state, fs, aux, cfg, p, &mut unexplained);
+        for c in &mut candidates {
+            if c.veto.is_none() {
+                c.veto = on_filled_stretch(&c.effect, &cfg.filled_s);
+            }
+        }
         rejected = unexplained;
         rejected.extend(candidates.iter().filter(|c| !c.admissible()).map(|c| {
             Rejected {
@@ -602,6 +635,9 @@ fn run_loop(
                     .map_or(c.evidence.clone(), |b| format!("{}; {b}", c.evidence)),
             }
         }));
+        // Listed as rejected above, and no rival either: a fill's level change is no model of
+        // the sensor (as a rival it took 100 % of the weight of the coefficients it averaged).
+        candidates.retain(|c| on_filled_stretch(&c.effect, &cfg.filled_s).is_none());
         let (admissible, others): (Vec<Candidate>, Vec<Candidate>) =
             candidates.into_iter().partition(Candidate::admissible);
         let Some(best) = admissible
