@@ -568,10 +568,25 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
         .iter()
         .filter(|r| mine.contains(r.record.key.as_str()) && job.fail_on.matches(r))
         .count();
+    // Inputs that failed outrank limits (exit 1 over 3): the line names the code returned.
+    let code = if batch.failed > 0 {
+        EXIT_SOME_FAILED
+    } else if matched > 0 {
+        FailOn::EXIT_CODE
+    } else {
+        EXIT_OK
+    };
     if !quiet && matched > 0 {
+        let head = if code == FailOn::EXIT_CODE {
+            format!("exit {code}")
+        } else {
+            format!(
+                "exit {code} (inputs failed, which outranks exit {})",
+                FailOn::EXIT_CODE
+            )
+        };
         eprintln!(
-            "exit {}: {matched} channel{} {}",
-            FailOn::EXIT_CODE,
+            "{head}: {matched} channel{} {}",
             if matched == 1 { "" } else { "s" },
             match job.fail_on {
                 FailOn::Fail => "fail a limit of the specification (--fail-on fail)",
@@ -579,13 +594,7 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
             }
         );
     }
-    Ok(if batch.failed > 0 {
-        EXIT_SOME_FAILED
-    } else if matched > 0 {
-        FailOn::EXIT_CODE
-    } else {
-        EXIT_OK
-    })
+    Ok(code)
 }
 
 #[cfg(test)]

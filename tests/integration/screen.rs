@@ -302,6 +302,17 @@ fn a_fleet_with_three_planted_faults_flags_exactly_those_and_a_rerun_skips_every
         stderr(&again)
     );
     assert_eq!(read_batches(&out.join("fleet.parquet")), table);
+    // A corrupt input beside the failing limits: exit 1 (inputs failed outranks 3), and the line
+    // says which code it is, not "exit 3".
+    std::fs::write(tmp.path().join("fleet").join("imu99.arrow"), b"not arrow").unwrap();
+    let bad = imunoise(&args, tmp.path());
+    assert_eq!(bad.status.code(), Some(1), "{}", stderr(&bad));
+    assert!(
+        stderr(&bad)
+            .contains("exit 1 (inputs failed, which outranks exit 3): 3 channels fail a limit"),
+        "{}",
+        stderr(&bad)
+    );
 }
 
 /// Nine units of one minute, fitted without the loop (fast): three shards run one after the other
