@@ -416,15 +416,8 @@ mod tests {
     }
 
     fn signal(n: usize, seed: u64) -> Vec<f64> {
-        let mut s = seed;
-        (0..n)
-            .map(|_| {
-                s = s
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1_442_695_040_888_963_407);
-                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            })
-            .collect()
+        let mut rng = imunoise::sim::rng::Rng::new(seed);
+        (0..n).map(|_| rng.gauss()).collect()
     }
 
     /// Held pushes (all of them, or up to the cap, after which pushes wait) give the backend's own
