@@ -245,13 +245,15 @@ fn read_off_cells(read: Option<&crate::model::ReadOff>, u: crate::model::CoefUni
 /// The combined coefficients first (one answer per term, both display units), the IEEE read-offs
 /// beside them, the sensor bandwidth and every warning.
 fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
+    // The read-offs' intervals are at the run's confidence, as every other interval here.
     let _ = writeln!(
         out,
         "\n### Coefficients (combined)\n\nOne value per term: the more precise of the two fits, or \
          the one whose model has the term's neighbours (Q–N–B–K–R) when only one does; the interval \
          spans both fits where they disagree. Read-offs: N = σ(1 s), B = min σ/0.664, K = σ(3 s) \
-         from the Allan deviation, with the 1σ interval of σ there (the slope there says whether \
-         the term rules it).\n"
+         from the Allan deviation, with the {} interval of σ there (the slope there says whether \
+         the term rules it).\n",
+        confidence_text(analysis)
     );
     let _ = writeln!(
         out,
