@@ -177,6 +177,20 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Recording, InputError>
         .filter_map(|&(r, s, label)| r.map(|r| (r, s, label)))
         .collect();
     let Some(&(rate_hz, rate_source, first_label)) = given.first() else {
+        // A time column that gave no rate has fewer than two increasing timestamps where they
+        // were probed: say that, not "add a time column" (an empty file and one whose timestamps
+        // all repeat were told to add the column they have).
+        if let Some(spec) = &time {
+            return Err(InputError::BadMetadata {
+                path: path.to_path_buf(),
+                column: spec.name.clone(),
+                message: format!(
+                    "the time column gives no sample rate: fewer than two increasing timestamps \
+                     in its first {RATE_PROBE_SAMPLES} rows (an empty file, or timestamps that \
+                     repeat); pass --rate to read it anyway"
+                ),
+            });
+        }
         return Err(InputError::NoRate {
             path: path.to_path_buf(),
         });

@@ -898,3 +898,28 @@ fn a_filled_gap_is_no_step_and_no_excursion() {
         "no level change was even tried at the fill"
     );
 }
+
+/// An empty file, or one whose timestamps all repeat, has a time column that gives no rate: the
+/// error says so, naming it, where it used to ask for "a time column" the file has.
+#[test]
+fn a_time_column_without_a_rate_is_named_not_asked_for() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in [
+        ("empty.csv", "t,gx [deg/s]\n".to_string()),
+        ("same.csv", "t,gx [deg/s]\n0,1\n0,2\n0,3\n".to_string()),
+    ] {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        let err = io::open(&p, &OpenOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains(name)
+                && err.contains("\"t\"")
+                && err.contains("gives no sample rate")
+                && err.contains("--rate")
+                && !err.contains("add schema metadata"),
+            "{err}"
+        );
+    }
+}
