@@ -7,10 +7,11 @@
 //! into discrete-time standard deviations with √rate and 1/√rate. Choices, written into the file:
 //! - one value per sensor, the worst (largest) axis, because the file has one number; every axis
 //!   is listed in a comment;
-//! - values from the Allan-variance fit (the habit of the field), the spectrum fit where the
-//!   Allan fit failed;
-//! - a random walk the fit did not admit is given as its upper limit, marked, rather than 0: a
-//!   filter told "no bias walk" trusts its bias forever;
+//! - the combined value where the term is kept; where it is not, the Allan-variance fit's upper
+//!   limit (the habit of the field; the spectrum fit's where the Allan fit failed), marked,
+//!   rather than 0: a filter told "no bias walk" trusts its bias forever. That bound can lie far
+//!   below the combined upper limit of summary.md, which takes the looser of the two fits' bounds
+//!   (on short records the spectrum's is loose);
 //! - the bias instability has no place in Kalibr's model; it is listed per axis for reference.
 
 use std::fmt::Write;
