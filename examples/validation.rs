@@ -104,6 +104,16 @@ struct Tally {
     heavy_tail_n_ratios: Vec<f64>,
 }
 
+impl Tally {
+    /// A resonance's f₀, Q and σ, each (estimate, lo, hi, truth): coverage and ratio to the truth.
+    fn resonance(&mut self, checks: [(f64, f64, f64, f64); 3]) {
+        for (k, (v, lo, hi, t)) in checks.into_iter().enumerate() {
+            self.resonance_covered[k] += usize::from(lo <= t && t <= hi);
+            self.resonance_ratios[k].push(v / t);
+        }
+    }
+}
+
 /// "(K disagrees 12, lack of fit (Allan) 3)".
 fn warning_summary(kinds: &[String]) -> String {
     let mut sorted = kinds.to_vec();
@@ -626,15 +636,11 @@ fn main() {
                             planted["q"].as_f64().unwrap_or(RESONANCE.1),
                             planted["sigma"].as_f64().unwrap_or(RESONANCE.2),
                         );
-                        let checks = [
+                        tally.resonance([
                             (*f0_hz, *f0_lo, *f0_hi, f0_t),
                             (*q, *q_lo, *q_hi, q_t),
                             (sigma.value, sigma.lo, sigma.hi, s_t),
-                        ];
-                        for (k, (v, lo, hi, t)) in checks.into_iter().enumerate() {
-                            tally.resonance_covered[k] += usize::from(lo <= t && t <= hi);
-                            tally.resonance_ratios[k].push(v / t);
-                        }
+                        ]);
                     }
                 }
                 if let imunoise::effects::Effect::Narrowband(nb) = &s.effect {
@@ -643,25 +649,12 @@ fn main() {
                     if let (Some(r), Some(f0_t)) = (&nb.resonance, planted["f0_hz"].as_f64()) {
                         tally.resonances_found += 1;
                         tally.resonances_from_bands = true;
-                        let checks = [
+                        let truth = |key: &str| planted[key].as_f64().unwrap_or(f64::NAN);
+                        tally.resonance([
                             (r.f0_hz, r.f0_lo_hz, r.f0_hi_hz, f0_t),
-                            (
-                                r.q,
-                                r.q_lo,
-                                r.q_hi,
-                                planted["q"].as_f64().unwrap_or(f64::NAN),
-                            ),
-                            (
-                                r.sigma,
-                                r.sigma_lo,
-                                r.sigma_hi,
-                                planted["sigma"].as_f64().unwrap_or(f64::NAN),
-                            ),
-                        ];
-                        for (k, (v, lo, hi, t)) in checks.into_iter().enumerate() {
-                            tally.resonance_covered[k] += usize::from(lo <= t && t <= hi);
-                            tally.resonance_ratios[k].push(v / t);
-                        }
+                            (r.q, r.q_lo, r.q_hi, truth("q")),
+                            (r.sigma, r.sigma_lo, r.sigma_hi, truth("sigma")),
+                        ]);
                     }
                     if let Some(f) = case.extra["sinusoids"][0]["freq_hz"].as_f64() {
                         tally.bands_found += 1;

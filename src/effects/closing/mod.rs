@@ -620,12 +620,21 @@ fn run_loop(
     while steps.len() < MAX_STEPS {
         let mut unexplained = Vec::new();
         let mut candidates = propose(&state, fs, aux, cfg, p, &mut unexplained);
-        for c in &mut candidates {
-            if c.veto.is_none() {
-                c.veto = on_filled_stretch(&c.effect, &cfg.filled_s);
-            }
-        }
         rejected = unexplained;
+        // A fill's level change is listed as rejected and goes no further, not even as a rival
+        // (as one it took 100 % of the weight of the coefficients it averaged): no model of the
+        // sensor.
+        candidates.retain(|c| match on_filled_stretch(&c.effect, &cfg.filled_s) {
+            Some(why) => {
+                rejected.push(Rejected {
+                    kind: c.effect.kind(),
+                    delta_bic: c.delta_bic.is_finite().then_some(c.delta_bic),
+                    note: format!("{}; {why}", c.evidence),
+                });
+                false
+            }
+            None => true,
+        });
         rejected.extend(candidates.iter().filter(|c| !c.admissible()).map(|c| {
             Rejected {
                 kind: c.effect.kind(),
@@ -635,9 +644,6 @@ fn run_loop(
                     .map_or(c.evidence.clone(), |b| format!("{}; {b}", c.evidence)),
             }
         }));
-        // Listed as rejected above, and no rival either: a fill's level change is no model of
-        // the sensor (as a rival it took 100 % of the weight of the coefficients it averaged).
-        candidates.retain(|c| on_filled_stretch(&c.effect, &cfg.filled_s).is_none());
         let (admissible, others): (Vec<Candidate>, Vec<Candidate>) =
             candidates.into_iter().partition(Candidate::admissible);
         let Some(best) = admissible

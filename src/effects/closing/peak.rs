@@ -206,26 +206,28 @@ pub fn fit_peak_resonance(
     let centre = excess.iter().zip(&bins.f).map(|(w, f)| w * f).sum::<f64>() / weight;
     bins.s_start = weight * df / bins.gain_at(centre);
     let q_start = (centre / (f_hi - f_lo).max(df)).clamp(0.5, 1e4);
-    // Coordinate descent: Q at the centre, f₀ at that Q, twice; level and σ² in every evaluation.
-    let fit_q = |f0: f64, lq: f64| {
+    // The line searches of the coordinate descent, on any deviance d(f₀, Q): ln Q within ×/÷ 8 of
+    // `lq`, f₀ within ± `half` of `f0`.
+    let search_q = |d: &dyn Fn(f64, f64) -> f64, f0: f64, lq: f64| {
         golden(
-            &mut |l: f64| bins.best(f0, l.exp()),
+            &mut |l: f64| d(f0, l.exp()),
             lq - 8f64.ln(),
             lq + 8f64.ln(),
             20,
         )
-        .0
     };
-    let fit_f0 = |f0: f64, q: f64| {
-        let half = f0 / q;
+    let search_f0 = |d: &dyn Fn(f64, f64) -> f64, f0: f64, q: f64, half: f64| {
         golden(
-            &mut |f: f64| bins.best(f, q),
+            &mut |f: f64| d(f, q),
             (f0 - half).max(df),
             (f0 + half).min(nyquist - df),
             24,
         )
-        .0
     };
+    // Coordinate descent: Q at the centre, f₀ at that Q, twice; level and σ² in every evaluation.
+    let best = |f: f64, q: f64| bins.best(f, q);
+    let fit_q = |f0: f64, lq: f64| search_q(&best, f0, lq).0;
+    let fit_f0 = |f0: f64, q: f64| search_f0(&best, f0, q, f0 / q).0;
     let mut lq = fit_q(centre, q_start.ln());
     let mut f0 = fit_f0(centre, lq.exp());
     lq = fit_q(f0, lq);
@@ -243,18 +245,10 @@ pub fn fit_peak_resonance(
     let q_profile = |l: f64| bins.best(fit_f0(f0, l.exp()), l.exp());
     let s_profile = |l: f64| {
         // f₀, Q and the level at the fixed σ², coordinate-wise from the optimum.
-        let at = |f: f64, x: f64| bins.best_levels(&bins.unit(f, x.exp()), Some(l.exp())).2;
-        let span = |lq0: f64| (lq0 - 8f64.ln(), lq0 + 8f64.ln());
-        let (a, b) = span(lq);
-        let (lq1, _) = golden(&mut |x: f64| at(f0, x), a, b, 20);
-        let (f1, _) = golden(
-            &mut |f: f64| at(f, lq1),
-            (f0 - half).max(df),
-            (f0 + half).min(nyquist - df),
-            24,
-        );
-        let (a, b) = span(lq1);
-        golden(&mut |x: f64| at(f1, x), a, b, 20).1
+        let at = |f: f64, q: f64| bins.best_levels(&bins.unit(f, q), Some(l.exp())).2;
+        let lq1 = search_q(&at, f0, lq).0;
+        let f1 = search_f0(&at, f0, lq1.exp(), half).0;
+        search_q(&at, f1, lq1).1
     };
     let (f0_lo, f0_hi) = profile_interval(&f_profile, f0, half / 12.0, d_min, limit, 48);
     let (lq_lo, lq_hi) = profile_interval(&q_profile, lq, 10f64.ln() / 24.0, d_min, limit, 48);
