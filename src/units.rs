@@ -266,6 +266,26 @@ mod tests {
         }
     }
 
+    /// The README's list of units is the parser's: every accepted spelling is in it.
+    #[test]
+    fn the_readme_lists_every_accepted_spelling() {
+        let readme = include_str!("../README.md");
+        let start = readme
+            .find("Units (any letter case):")
+            .expect("the README's unit list");
+        let list = readme[start..]
+            .split("Kinds:")
+            .next()
+            .unwrap()
+            .to_lowercase();
+        for (spelling, _) in SPELLINGS {
+            let listed = list
+                .split(|c: char| c == ',' || c == '(' || c == ')' || c.is_whitespace())
+                .any(|w| w.trim_end_matches(['.', ':']) == *spelling);
+            assert!(listed, "README's unit list lacks {spelling}");
+        }
+    }
+
     #[test]
     fn conversions_match_their_definitions() {
         let (f, _) = Unit::DegPerH.to_si();

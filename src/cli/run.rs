@@ -407,11 +407,14 @@ fn write_tables_and_folders(
         let md = report::summary_markdown(&refs, failures, elapsed_s);
         report::write_atomically(&dir.join("summary.md"), |w| w.write_all(md.as_bytes()))?;
         let topic = job.output.kalibr_topic.as_deref().unwrap_or("/imu0");
-        for (r, folder) in ok.iter().zip(per_file_folders(ok)) {
+        let folders = per_file_folders(ok);
+        let mut written = std::collections::HashSet::new();
+        for (r, name) in ok.iter().zip(&folders) {
             let Some(analysis) = &r.analysis else {
                 continue;
             };
-            let folder = dir.join(folder);
+            written.insert(name.clone());
+            let folder = dir.join(name);
             std::fs::create_dir_all(&folder).map_err(|e| OutputError::new(&folder, e))?;
             let yaml = report::imu_yaml(
                 &r.recording.path.display().to_string(),
@@ -422,7 +425,18 @@ fn write_tables_and_folders(
             report::write_atomically(&folder.join("imu.yaml"), |w| w.write_all(yaml.as_bytes()))?;
             let plots = folder.join("plots");
             std::fs::create_dir_all(&plots).map_err(|e| OutputError::new(&plots, e))?;
-            report::write_plots(&plots, r)?;
+            let figures = report::write_plots(&plots, r)?;
+            report::prune_figures(&plots, &figures.into_iter().collect())?;
+        }
+        let stale = report::retire_stale_folders(dir, &written)?;
+        if !stale.is_empty() {
+            eprintln!(
+                "imunoise: note: moved the folders an earlier run left in {} for recordings this \
+                 run did not analyse ({}) to {}, so that none there looks current that is not",
+                dir.display(),
+                stale.join(", "),
+                dir.join(report::EARLIER_RUNS).display()
+            );
         }
     }
     if job.work.welch.is_some() {

@@ -307,6 +307,15 @@ impl Report {
     }
 }
 
+/// The stderr line of a file's error: the path once (errors of reading already name it).
+fn error_line(path: &str, e: &str) -> String {
+    if e.contains(path) {
+        format!("error {e}")
+    } else {
+        format!("error {path}: {e}")
+    }
+}
+
 impl Observer for Report {
     fn started(&self, input: &Input) {
         if let Some(b) = &self.bar {
@@ -335,11 +344,10 @@ impl Observer for Report {
                 };
                 match error {
                     Some(e) => self.line(&format!(
-                        "error {path}: {e} ({what}: unchanged since that run; --retry-errors retries)"
+                        "{} ({what}: unchanged since that run; --retry-errors retries)",
+                        error_line(&path.to_string(), e)
                     )),
-                    None if !self.quiet => self.line(&format!(
-                        "{what} {path}: result up to date"
-                    )),
+                    None if !self.quiet => self.line(&format!("{what} {path}: result up to date")),
                     None => {}
                 }
             }
@@ -350,11 +358,7 @@ impl Observer for Report {
                 ..
             } => {
                 if let Some(e) = outcome.error() {
-                    if e.contains(&path.to_string()) {
-                        self.line(&format!("error {e}"));
-                    } else {
-                        self.line(&format!("error {path}: {e}"));
-                    }
+                    self.line(&error_line(&path.to_string(), e));
                     return;
                 }
                 if self.quiet {

@@ -52,6 +52,8 @@ pub struct TimeDecoder {
     origin_ticks: Option<i64>,
     /// The first value of a float column, in its stored units.
     origin_seconds: Option<f64>,
+    /// The resolution of the values seen so far, in seconds (see [`TimeDecoder::resolution_s`]).
+    resolution_s: f64,
 }
 
 impl TimeDecoder {
@@ -60,7 +62,14 @@ impl TimeDecoder {
             encoding: spec.encoding,
             origin_ticks: None,
             origin_seconds: None,
+            resolution_s: 0.0,
         }
+    }
+
+    /// How finely the stored values resolve time, in seconds: a tick for integers, the spacing
+    /// of the column's floats (f32 or f64) at the largest magnitude seen for floats.
+    pub fn resolution_s(&self) -> f64 {
+        self.resolution_s
     }
 
     /// Appends seconds since the first timestamp; false for an unexpected array type.
@@ -71,6 +80,17 @@ impl TimeDecoder {
                 // (~1.7e12) scaled first would keep only ~0.2 µs of resolution.
                 let start = out.len();
                 let ok = append_samples(array, 1.0, 0.0, out);
+                let largest = out[start..]
+                    .iter()
+                    .filter(|v| v.is_finite())
+                    .fold(0.0f64, |m, v| m.max(v.abs()));
+                let spacing = if array.data_type() == &DataType::Float32 {
+                    let a = largest as f32;
+                    (f32::from_bits(a.to_bits() + 1) - a) as f64
+                } else {
+                    crate::quality::float_spacing(largest)
+                };
+                self.resolution_s = self.resolution_s.max(spacing * seconds_per_unit.abs());
                 if let Some(&first) = out[start..].iter().find(|v| v.is_finite()) {
                     let origin = *self.origin_seconds.get_or_insert(first);
                     for v in &mut out[start..] {
@@ -81,6 +101,7 @@ impl TimeDecoder {
             }
             TimeEncoding::Timestamp { seconds_per_tick }
             | TimeEncoding::IntegerTicks { seconds_per_tick } => {
+                self.resolution_s = seconds_per_tick.abs();
                 let Some(ticks) = integer_ticks(array) else {
                     return false;
                 };

@@ -302,6 +302,11 @@ pub struct Block {
     /// Index of the block's first row in the file (0-based data rows).
     pub first_row: u64,
     pub time_s: Option<Vec<f64>>,
+    /// The resolution of the time column as stored, in seconds, up to this block: one tick of an
+    /// integer column, the spacing of floats at the largest value of a float one (epoch seconds
+    /// in f64 resolve 2.4e-7 s, whatever the relative times in `time_s` could hold); 0 without a
+    /// time column.
+    pub time_resolution_s: f64,
     pub channels: Vec<Vec<f64>>,
 }
 
@@ -447,9 +452,11 @@ impl Iterator for BlockReader {
             }
             channels.push(out);
         }
+        let time_resolution_s = self.time.as_ref().map_or(0.0, TimeDecoder::resolution_s);
         Some(Ok(Block {
             first_row,
             time_s,
+            time_resolution_s,
             channels,
         }))
     }

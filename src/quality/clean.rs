@@ -8,8 +8,8 @@ use std::path::PathBuf;
 
 use super::stats::SliceScan;
 use super::{
-    verdicts, ChannelQuality, ChannelStats, Gap, GapPolicy, NonFinitePolicy, QualityOptions,
-    QualityReport, TimeJitter, MAX_LISTED_GAPS,
+    float_spacing, verdicts, ChannelQuality, ChannelStats, Gap, GapPolicy, NonFinitePolicy,
+    QualityOptions, QualityReport, TimeJitter, MAX_LISTED_GAPS,
 };
 use crate::io::time_grid::GridTracker;
 use crate::io::ChannelSpec;
@@ -72,6 +72,10 @@ pub struct Cleaner {
     period_s: f64,
     options: QualityOptions,
     previous_time: Option<f64>,
+    /// The first timestamp (with the last, the largest in magnitude: they increase).
+    first_time: f64,
+    /// The time column's resolution as stored ([`crate::io::Block::time_resolution_s`]).
+    stored_time_resolution_s: f64,
     /// The grid of sample instants the timestamps jitter around, at the period the time column
     /// shows (a clock off its nominal rate by 0.4 % would otherwise make the grid lag by a quarter
     /// period).
@@ -114,6 +118,8 @@ impl Cleaner {
             period_s: 1.0 / recording.rate_hz,
             options,
             previous_time: None,
+            first_time: 0.0,
+            stored_time_resolution_s: 0.0,
             grid: GridTracker::new(grid_period_s),
             grid_period_s,
             jitter_sq: 0.0,
@@ -142,6 +148,7 @@ impl Cleaner {
     pub fn push(&mut self, mut block: Block) -> Result<SampleChunk, InputError> {
         let rows = block.rows();
         let mut start = 0;
+        self.stored_time_resolution_s = self.stored_time_resolution_s.max(block.time_resolution_s);
         if let (Some(times), None) = (&block.time_s, self.previous_time) {
             self.grid = GridTracker::anchored(self.grid_period_s, times);
         }
@@ -195,10 +202,13 @@ impl Cleaner {
             dropped_rows: self.dropped,
             time_jitter: (self.jitter_count > 0).then(|| {
                 let rms_s = (self.jitter_sq / self.jitter_count as f64).sqrt();
+                let last = self.previous_time.unwrap_or(0.0);
                 TimeJitter {
                     rms_s,
                     max_s: self.jitter_max,
                     gaps_ambiguous: self.jitter_max > JITTER_AMBIGUOUS_PERIODS * self.grid_period_s,
+                    resolution_s: float_spacing(self.first_time.abs().max(last.abs()))
+                        .max(self.stored_time_resolution_s),
                 }
             }),
             channels: self
@@ -226,6 +236,7 @@ impl Cleaner {
             if !t.is_finite() {
                 return Err(self.time_error(row, f64::NAN, t));
             }
+            self.first_time = t;
             self.grid.place(t);
             return Ok(None);
         };

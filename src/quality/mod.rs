@@ -153,6 +153,28 @@ pub struct TimeJitter {
     /// The jitter reaches [`JITTER_AMBIGUOUS_PERIODS`] of a period: a late sample and a missing one
     /// can no longer be told apart, so the gap count may be wrong either way.
     pub gaps_ambiguous: bool,
+    /// How finely the timestamps resolve time, s: one tick of an integer column, the spacing of
+    /// a float column's values at its largest (epoch seconds in f64: 2.4e-7 s), and at least the
+    /// spacing of the seconds since the first sample that the grid is tracked in. Deviations of a
+    /// few of these are rounding, not the clock's jitter.
+    pub resolution_s: f64,
+}
+
+impl TimeJitter {
+    /// Deviations this many [`TimeJitter::resolution_s`] and below are rounding.
+    pub const ROUNDING_SPACINGS: f64 = 16.0;
+
+    /// Whether even the largest deviation is rounding: the timestamps lie on their grid as
+    /// exactly as their floating-point values can say, and there is no jitter to report.
+    pub fn below_resolution(&self) -> bool {
+        self.max_s <= Self::ROUNDING_SPACINGS * self.resolution_s
+    }
+}
+
+/// The distance from |x| to the next larger 64-bit float.
+pub fn float_spacing(x: f64) -> f64 {
+    let a = x.abs();
+    f64::from_bits(a.to_bits() + 1) - a
 }
 
 impl QualityReport {

@@ -89,11 +89,19 @@ pub fn info_text(r: &FileResult) -> String {
         match &rec.time {
             Some(t) => {
                 let jitter = q.time_jitter.map_or(String::new(), |j| {
-                    format!(
-                        "; jitter rms {} s, max {} s",
-                        sig(j.rms_s, 3),
-                        sig(j.max_s, 3)
-                    )
+                    if j.below_resolution() {
+                        format!(
+                            "; no jitter (every timestamp on its grid to the column's resolution, \
+                             {} s)",
+                            sig(j.resolution_s, 2)
+                        )
+                    } else {
+                        format!(
+                            "; jitter rms {} s, max {} s",
+                            sig(j.rms_s, 3),
+                            sig(j.max_s, 3)
+                        )
+                    }
                 });
                 format!("column {:?}{jitter}", t.name)
             }
@@ -102,9 +110,12 @@ pub fn info_text(r: &FileResult) -> String {
     ));
     if rec.time.is_some() {
         let ambiguous = if q.time_jitter.is_some_and(|j| j.gaps_ambiguous) {
-            " (ambiguous: the jitter reaches a third of a period)"
+            format!(
+                " (ambiguous: the jitter reaches {} of a period)",
+                crate::quality::JITTER_AMBIGUOUS_PERIODS
+            )
         } else {
-            ""
+            String::new()
         };
         facts.push((
             "gaps",

@@ -56,7 +56,8 @@ pub fn imu_yaml(source: &str, rate_hz: f64, topic: &str, analysis: &[ChannelAnal
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "# Kalibr IMU noise model written by imunoise {}",
+        "{} {}",
+        super::KALIBR_HEADER,
         env!("CARGO_PKG_VERSION")
     );
     let _ = writeln!(out, "# source: {source}");

@@ -14,10 +14,11 @@ mod json_layout;
 mod kalibr;
 mod model;
 pub mod plot;
+mod stale;
 mod summary;
 mod table;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
 
@@ -28,6 +29,7 @@ pub use info::info_text;
 pub use json_layout::write_json as write_json_layout;
 pub use kalibr::imu_yaml;
 pub use model::{analysis_json, coefficients_table, units_of};
+pub use stale::{prune_figures, retire_stale_folders, EARLIER_RUNS, KALIBR_HEADER};
 pub use summary::{effect_line, ramp_sentence, summary_markdown, warning_line, EffectUnits};
 pub use table::{Column, Table};
 
@@ -346,16 +348,17 @@ pub fn write_json(path: &Path, doc: &Value) -> Result<(), OutputError> {
 /// `<channel>_avar.svg|png` and `<channel>_psd.svg|png`. Channels are drawn in parallel: the
 /// rasterising and PNG compression of a 6-channel file's twelve figures took a third of a second
 /// on one core, about a sixth of `analyze`'s wall time on a 1-h record. The first error in channel
-/// order is returned.
-pub fn write_plots(folder: &Path, r: &FileResult) -> Result<(), OutputError> {
+/// order is returned; otherwise the paths written.
+pub fn write_plots(folder: &Path, r: &FileResult) -> Result<Vec<PathBuf>, OutputError> {
     use rayon::prelude::*;
     use std::io::Write;
     let Some(analysis) = &r.analysis else {
-        return Ok(());
+        return Ok(Vec::new());
     };
-    let results: Vec<Result<(), OutputError>> = analysis
+    let results: Vec<Result<Vec<PathBuf>, OutputError>> = analysis
         .par_iter()
-        .map(|a| -> Result<(), OutputError> {
+        .map(|a| -> Result<Vec<PathBuf>, OutputError> {
+            let mut written = Vec::new();
             let unit = channel_unit(&r.recording, &a.channel);
             let mut figures = Vec::new();
             if let Some(d) = r
@@ -378,9 +381,14 @@ pub fn write_plots(folder: &Path, r: &FileResult) -> Result<(), OutputError> {
                     .to_png()
                     .map_err(|e| OutputError::new(&stem.with_extension("png"), e))?;
                 write_atomically(&stem.with_extension("png"), |w| w.write_all(&png))?;
+                written.extend([stem.with_extension("svg"), stem.with_extension("png")]);
             }
-            Ok(())
+            Ok(written)
         })
         .collect();
-    results.into_iter().collect()
+    let mut all = Vec::new();
+    for r in results {
+        all.extend(r?);
+    }
+    Ok(all)
 }

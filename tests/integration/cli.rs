@@ -207,6 +207,48 @@ fn one_bad_file_in_a_batch_does_not_stop_the_others() {
     assert!(leftovers.is_empty());
 }
 
+/// A second `analyze` into the same folder, with a recording that now fails: the first run's
+/// folder of that recording moves to `earlier-runs/` instead of staying beside the new run's
+/// folders looking current; the recording that still works keeps its folder.
+#[test]
+fn an_earlier_runs_folder_does_not_look_current() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, seed: u64, nan: bool| {
+        let mut v = noise(8192, seed);
+        if nan {
+            v[5000] = f64::NAN;
+        }
+        write_ipc_file(
+            &dir.path().join(name),
+            &batch(&[f64_col("g", v, Some("rad/s"))], Some(50.0)),
+            1000,
+        );
+    };
+    write("a.arrow", 1, false);
+    write("b.arrow", 2, false);
+    let args = ["analyze", "a.arrow", "b.arrow", "-o", "out", "--quiet"];
+    let first = imunoise(&args, dir.path());
+    assert_eq!(first.status.code(), Some(0), "{first:?}");
+    let out = dir.path().join("out");
+    assert!(out.join("b/imu.yaml").exists() && out.join("b/plots/g_avar.svg").exists());
+
+    write("b.arrow", 2, true);
+    let second = imunoise(&args, dir.path());
+    assert_eq!(second.status.code(), Some(1), "{second:?}");
+    let stderr = String::from_utf8_lossy(&second.stderr);
+    assert!(
+        stderr.contains("earlier run") && stderr.contains("(b)"),
+        "{stderr}"
+    );
+    assert!(
+        !out.join("b").exists(),
+        "b failed this run: no folder of b looks current"
+    );
+    assert!(out.join("earlier-runs/b/imu.yaml").exists());
+    assert!(out.join("earlier-runs/b/plots/g_psd.png").exists());
+    assert!(out.join("a/imu.yaml").exists() && out.join("a/plots/g_avar.svg").exists());
+}
+
 #[test]
 fn usage_errors_exit_2_before_reading_anything() {
     let dir = tempfile::tempdir().unwrap();

@@ -755,6 +755,22 @@ fn malformed_csv_records_name_row_and_line() {
     write_csv_text(&path, "1.5,2.5", rows(10));
     let e = err_of(&path, &csv_inputs(512));
     assert!(e.to_string().contains("a header line"), "{e}");
+
+    // Another separator (a spreadsheet's export with decimal commas): the header is one column
+    // holding the separator; the error says so instead of counting fields in the first row.
+    for (sep, what) in [(";", "semicolons"), ("\t", "tabs")] {
+        let decimal = |i: usize| format!("{i},5{sep}{i},25");
+        write_csv_text(
+            &path,
+            &format!("time [s]{sep}gyro_x [deg/s]"),
+            (0..10).map(decimal),
+        );
+        let e = err_of(&path, &csv_inputs(512)).to_string();
+        assert!(
+            e.contains(&format!("separated by {what}")) && e.contains("line 1"),
+            "{e}"
+        );
+    }
 }
 
 /// Two columns of the same name: an error naming it, in every format (which one `--channels`

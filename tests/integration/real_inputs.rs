@@ -304,6 +304,36 @@ fn jitter_is_not_a_gap_and_a_missing_sample_among_jitter_is() {
     assert!(!r.quality.time_jitter.unwrap().gaps_ambiguous);
 }
 
+/// Timestamps that are exact to their floats' resolution (decimal seconds from the epoch, whose
+/// spacing there is 2.4e-7 s) have no jitter to report, only rounding; the ±4-ms clock above has.
+#[test]
+fn rounding_of_float_timestamps_is_not_jitter() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("epoch.csv");
+    let g = noise(30_000, 11);
+    let mut text = String::from("time [s],gx [deg/s]\n");
+    for (i, v) in g.iter().enumerate() {
+        text.push_str(&format!("{:.2},{v}\n", 1.7e9 + i as f64 / 100.0));
+    }
+    std::fs::write(&path, text).unwrap();
+    let j = screen(&path, GapPolicy::Error).quality.time_jitter.unwrap();
+    assert!(j.max_s > 0.0, "the floats do round: {j:?}");
+    assert_eq!(
+        j.resolution_s,
+        2f64.powi(-22),
+        "spacing of floats near 1.7e9"
+    );
+    assert!(j.below_resolution(), "{j:?}");
+
+    let clean = dir.path().join("jitter.arrow");
+    jittery(&clean, 30_000, 4.0, &[]);
+    let j = screen(&clean, GapPolicy::Error)
+        .quality
+        .time_jitter
+        .unwrap();
+    assert!(!j.below_resolution(), "{j:?}");
+}
+
 #[test]
 fn stuck_and_unresolved_channels_are_named_and_not_fitted() {
     let dir = tempfile::tempdir().unwrap();

@@ -112,6 +112,25 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
             }
         }
     }
+    if let [only] = names.as_slice() {
+        if let Some((sep, what)) = [(';', "semicolons"), ('\t', "tabs"), ('|', "bars")]
+            .into_iter()
+            .find(|(c, _)| only.contains(*c))
+        {
+            return Err(malformed(
+                path,
+                None,
+                Some(header.line),
+                format!(
+                    "the header is one column, {:?}, whose names are separated by {what}: CSV \
+                     input is read with commas between the columns and points as decimal marks; \
+                     convert the file (e.g. `tr '{}' ','` where the decimals are points already)",
+                    shown(only),
+                    sep.escape_default()
+                ),
+            ));
+        }
+    }
     if names.iter().all(|n| matches!(cell(n), Cell::Number(_))) {
         return Err(malformed(
             path,
