@@ -81,6 +81,11 @@ struct Tally {
     band_half_widths: Vec<f64>,
     edge_covered: [usize; 2],
     edge_widths: Vec<f64>,
+    /// Excursions found that settle away from where they started (`after`), and how often the
+    /// 1σ interval of that level covered the planted one (the sum of the case's steps).
+    excursions_found: usize,
+    settled_found: usize,
+    settled_covered: usize,
     runs: usize,
     detected: usize,
     with_effect: usize,
@@ -364,6 +369,14 @@ fn study_cases() -> Vec<Case> {
             seconds: None,
             rate: None,
         },
+        Case {
+            name: "excursion that settles elsewhere: +10σ (10-s means) at 600 s, −6σ at 900 s".into(),
+            filtered: false,
+            extra: json!({ "steps": [{ "time_s": 600.0, "size": EXCURSION }, { "time_s": 900.0, "size": -0.6 * EXCURSION }] }),
+            expect: Some("excursion"),
+            seconds: None,
+            rate: None,
+        },
     ]
 }
 
@@ -424,6 +437,17 @@ fn sweep_cases() -> Vec<Case> {
         cases.push(sweep(
             format!("excursion +{sigmas}σ (10-s means) from 600 s to 900 s"),
             json!({ "steps": [{ "time_s": 600.0, "size": size }, { "time_s": 900.0, "size": -size }] }),
+            "excursion",
+        ));
+    }
+    // An excursion that settles elsewhere: the rise, and a return of 60 % of it, so that the
+    // level after is 40 % of the rise; found as such only where that level stands out of the
+    // random walk's wander over the 900 s after the excursion (K·√900 s ≈ 3.5σ of 10-s means).
+    for sigmas in [10.0, 20.0, 30.0] {
+        let size = sigmas * EXCURSION / 10.0;
+        cases.push(sweep(
+            format!("excursion +{sigmas}σ (10-s means) at 600 s, −{}σ at 900 s", 0.6 * sigmas),
+            json!({ "steps": [{ "time_s": 600.0, "size": size }, { "time_s": 900.0, "size": -0.6 * size }] }),
             "excursion",
         ));
     }
@@ -668,6 +692,15 @@ fn main() {
                 }
                 if let imunoise::effects::Effect::Excursion(e) = &s.effect {
                     tally.edges_found += 1;
+                    tally.excursions_found += 1;
+                    if let Some(after) = e.after {
+                        let planted: f64 = case.extra["steps"]
+                            .as_array()
+                            .map_or(0.0, |v| v.iter().filter_map(|s| s["size"].as_f64()).sum());
+                        tally.settled_found += 1;
+                        tally.settled_covered +=
+                            usize::from(after.lo <= planted && planted <= after.hi);
+                    }
                     for (k, (i, truth)) in [(e.start_interval_s, 600.0), (e.end_interval_s, 900.0)]
                         .into_iter()
                         .enumerate()
@@ -918,6 +951,15 @@ fn main() {
                 pct(tally.edge_covered[1], tally.edges_found),
                 median(&mut tally.edge_widths)
             ));
+            if tally.settled_found > 0 {
+                edge_notes.push(format!(
+                    "{}: {} of the {} excursions settle away from where they started, the 1σ interval of that level covering the planted one in {}.",
+                    case.name,
+                    tally.settled_found,
+                    tally.excursions_found,
+                    pct(tally.settled_covered, tally.settled_found)
+                ));
+            }
         }
     }
     for n in edge_notes {

@@ -315,6 +315,46 @@ impl IncrementModel {
         })
     }
 
+    /// The GLS fit of whitened increments `u` on the intercept and several regressors `xs` (their
+    /// increments) at once: one [`Gls`] per regressor, each coefficient's t testing it with the
+    /// others in the model (Student, m − 1 − k degrees of freedom; noiseless regressors).
+    /// `None` for mismatched lengths or regressors the others explain (singular equations).
+    pub fn regress_whitened_jointly(&self, u: &Whitened, xs: &[&[f64]]) -> Option<Vec<Gls>> {
+        let m = self.m;
+        if u.0.len() != m || xs.iter().any(|x| x.len() != m) {
+            return None;
+        }
+        let mut cols = vec![self.ones.clone()];
+        cols.extend(xs.iter().map(|x| self.whiten(x)));
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(p, q)| p * q).sum::<f64>();
+        let gram: Vec<Vec<f64>> = cols
+            .iter()
+            .map(|a| cols.iter().map(|b| dot(a, b)).collect())
+            .collect();
+        let inverse = crate::model::linalg::inverse_spd(&gram)?;
+        let rhs: Vec<f64> = cols.iter().map(|c| dot(c, &u.0)).collect();
+        let coef: Vec<f64> = inverse.iter().map(|row| dot(row, &rhs)).collect();
+        let rss: f64 = (0..m)
+            .map(|i| {
+                let fit: f64 = cols.iter().zip(&coef).map(|(c, b)| c[i] * b).sum();
+                (u.0[i] - fit).powi(2)
+            })
+            .sum();
+        let dof = (m - cols.len()) as f64;
+        let scale = rss / dof;
+        if !(scale.is_finite() && dof > 0.0) {
+            return None;
+        }
+        Some(
+            (1..cols.len())
+                .map(|j| {
+                    let se = (scale * inverse[j][j]).max(0.0).sqrt();
+                    Gls::student(coef[j], se, dof, scale, 1.0)
+                })
+                .collect(),
+        )
+    }
+
     /// The GLS fit of whitened increments `u` on the intercept and the increments `x`: the
     /// normal equations both [`regress_whitened`](Self::regress_whitened) (the slope) and
     /// [`mean_increment_beside`](Self::mean_increment_beside) (the intercept) read from. `None`

@@ -176,7 +176,14 @@ pub fn assess(mut records: Vec<ChannelRecord>, spec: &Spec) -> Fleet {
                 .filter(|v| v.is_finite())
                 .map(f64::ln)
                 .collect();
-            if logs.is_empty() {
+            // A limited term is shown even where no channel determines it: its verdicts then
+            // rest on upper limits, which the fleet page draws against the limit.
+            let limited = spec.limit(sensor, term).is_some()
+                && records
+                    .iter()
+                    .filter(ok)
+                    .any(|r| r.kind == Some(sensor) && r.term(term).upper.is_some());
+            if logs.is_empty() && !limited {
                 continue;
             }
             stats.push(TermStats {
@@ -374,6 +381,16 @@ mod tests {
             (r.verdict, r.basis),
             (Some(Verdict::Pass), Some(Basis::UpperLimit))
         );
+        // R has a limit, so the fleet shows it (its upper limits against the limit) though no
+        // channel determines it; B, neither limited nor determined anywhere, is not shown.
+        let shown: Vec<Term> = fleet.stats.iter().map(|s| s.term).collect();
+        assert_eq!(shown, [Term::RandomWalk, Term::RateRamp]);
+        let r = fleet
+            .stats
+            .iter()
+            .find(|s| s.term == Term::RateRamp)
+            .unwrap();
+        assert_eq!((r.count, r.scale), (0, None));
         let s7 = &fleet.rows[7];
         assert_eq!(s7.unusual_effects[0].kind, "sinusoid");
         assert_eq!(s7.unusual_effects[0].count, 1);

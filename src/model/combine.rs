@@ -701,30 +701,43 @@ fn allan_bound(dev: &Deviations, term: Term) -> Option<(f64, f64)> {
     ))
 }
 
-/// The largest value of `term` the fits allow when the combined estimate has none: over the fits,
-/// the upper end of a kept estimate's interval (a fit that kept it ambiguously) or the fit's
-/// upper limit; the larger of the two fits, so that a pass on it holds for both. The spectrum's
-/// bound on a rate ramp is left out: its lowest band is above the drift (see
+/// The largest value of `term` the fits allow when the combined estimate has none: the upper end
+/// of a kept estimate's interval (a fit that kept it ambiguously) or the fit's upper limit, from
+/// the term's home domain where that fit gives one — B, K and R from the Allan variance, whose
+/// long τ see their slopes where the spectrum's lowest band does not begin to — else from the
+/// other fit; for Q and N, whose home is either, the larger of the two fits, so that a pass on it
+/// holds for both. A bound of the spectrum's on B or K is then only its trade with a neighbour
+/// in its lowest bands: the verdict on a limit must not hang on which fit happened to keep the
+/// term. The
+/// spectrum's bound on a rate ramp is never used: its lowest band is above the drift (see
 /// [`crate::model::combine`]).
 pub fn upper_limit(
     allan: Option<&NoiseFit>,
     spectrum: Option<&NoiseFit>,
     term: Term,
 ) -> Option<f64> {
-    [allan, spectrum]
-        .into_iter()
-        .flatten()
-        .filter(|f| !(term == Term::RateRamp && f.domain == Domain::Spectrum))
-        .filter_map(|f| {
-            f.get(term).map(|e| e.hi).or_else(|| {
+    let bound = |f: &NoiseFit| {
+        f.get(term)
+            .map(|e| e.hi)
+            .or_else(|| {
                 f.upper_limits
                     .iter()
                     .find(|u| u.term == term)
                     .map(|u| u.upper)
             })
-        })
-        .filter(|u| u.is_finite())
-        .reduce(f64::max)
+            .filter(|u| u.is_finite())
+    };
+    match term {
+        Term::BiasInstability | Term::RateRandomWalk => {
+            allan.and_then(bound).or_else(|| spectrum.and_then(bound))
+        }
+        Term::RateRamp => allan.and_then(bound),
+        Term::Quantization | Term::RandomWalk => [allan, spectrum]
+            .into_iter()
+            .flatten()
+            .filter_map(bound)
+            .reduce(f64::max),
+    }
 }
 
 #[cfg(test)]
@@ -783,6 +796,29 @@ mod tests {
 
     fn fit(domain: Domain, estimates: Vec<TermEstimate>, upper: Vec<(Term, f64)>) -> NoiseFit {
         crate::model::result::fit_for_tests(domain, estimates, upper)
+    }
+
+    /// K's bound comes from the Allan fit whichever fit kept it: a spectrum that kept K
+    /// ambiguously (its lowest bands trading it for B) with a wide interval does not loosen it;
+    /// without an Allan fit the spectrum's bound stands. Q and N take the larger of the two; the
+    /// spectrum never bounds R.
+    #[test]
+    fn an_upper_limit_comes_from_the_terms_home_fit() {
+        let k = Term::RateRandomWalk;
+        let allan = fit(Domain::Allan, vec![], vec![(k, 2.0)]);
+        let mut wide = est(k, 5.0, 0.9);
+        wide.ambiguous_with = Some(Term::BiasInstability);
+        let spectrum = fit(Domain::Spectrum, vec![wide], vec![(Term::RateRamp, 1.0)]);
+        assert_eq!(upper_limit(Some(&allan), Some(&spectrum), k), Some(2.0));
+        assert_eq!(upper_limit(None, Some(&spectrum), k), Some(9.5));
+        assert_eq!(
+            upper_limit(Some(&allan), Some(&spectrum), Term::RateRamp),
+            None
+        );
+        let q = Term::Quantization;
+        let a = fit(Domain::Allan, vec![], vec![(q, 3.0)]);
+        let s = fit(Domain::Spectrum, vec![], vec![(q, 1.0)]);
+        assert_eq!(upper_limit(Some(&a), Some(&s), q), Some(3.0));
     }
 
     /// A 1σ upper limit at 0.75 of an estimate known to ±8 % (in log) lies beyond that estimate's

@@ -539,8 +539,14 @@ pub fn effect_line(e: &Effect, units: &EffectUnits) -> String {
                 Some((a, b)) => format!("{t:.1} s [{a:.1}, {b:.1}]"),
                 None => format!("{t:.1} s"),
             };
+            let settles = e.after.map_or(String::new(), |a| {
+                format!(
+                    ", the mean settling {} from the level before it (not coming all the way back)",
+                    v.interval(a.size, a.lo, a.hi)
+                )
+            });
             format!(
-                "excursion from {} to {} of {}{}",
+                "excursion from {} to {} of {}{settles}{}",
                 when(e.start_s, e.start_interval_s),
                 when(e.end_s, e.end_interval_s),
                 v.interval(e.size, e.lo, e.hi),

@@ -295,8 +295,14 @@ impl SlowEffect for Excursion {
         self.delta_bic
     }
     fn evidence(&self) -> String {
+        let settles = self.after.map_or(String::new(), |a| {
+            format!(
+                "; it settles {:.3e} from where it started (t = {:.1})",
+                a.size, a.z
+            )
+        });
         format!(
-            "time series: the mean leaves and returns, {:.1}–{:.1} s (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over {} boxes)",
+            "time series: the mean leaves and returns, {:.1}–{:.1} s (t = {:.1} on {} increments of {:.1} s, p = {:.1e} over {} boxes){settles}",
             self.start_s, self.end_s, self.z, self.increments, self.block_s, self.p_value, self.boxes
         )
     }
