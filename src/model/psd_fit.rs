@@ -117,6 +117,29 @@ pub(crate) type BasisSample = (f64, [f64; BASE]);
 
 /// The spectrum fit's problem, the band centres of its points and the basis samples: the bands of
 /// `binned` inside the fit band of `opts`, each term's sampled PSD averaged over the band's bins.
+/// Bands this far below the median band are dead: no IEEE term and no roll-off the fits model
+/// reaches there (see [`without_dead_bands`]).
+pub const DEAD_BAND: f64 = 1e-6;
+
+/// `keep` without the bands whose value lies more than 60 dB below the median of the bands kept:
+/// a digital filter's zero at Nyquist (the bilinear transform puts one there) leaves the top band
+/// 10⁻¹¹ of the floor on a 400-Hz gyro behind a 100-Hz second-order filter, where the band ends
+/// in the zero's four bins. Such a band holds only leakage and rounding, and its weight — the
+/// fits start from weights set by the data, so a point that far below every model dominates the
+/// first solution — drove every candidate model to zero: no spectrum fit, no filter found, and
+/// the Allan fit alone, its shortest τ inside the filter's transition, read B 80× the truth.
+fn without_dead_bands(keep: Vec<usize>, value: &[f64]) -> Vec<usize> {
+    let mut sorted: Vec<f64> = keep.iter().map(|&b| value[b]).collect();
+    if sorted.is_empty() {
+        return keep;
+    }
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    keep.into_iter()
+        .filter(|&b| value[b] >= DEAD_BAND * median)
+        .collect()
+}
+
 pub(crate) fn spectrum_problem(
     psd: &Psd,
     binned: &BinnedPsd,
@@ -151,6 +174,7 @@ pub(crate) fn spectrum_problem(
                 && binned.dof[b] > 0.0
         })
         .collect();
+    let keep = without_dead_bands(keep, &binned.value);
     let spread2 = leakage_spread2(psd);
     let samples: BandSamples = keep
         .iter()
