@@ -500,6 +500,7 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
         &job.options_hash,
         &job.spec,
         &title,
+        &inputs,
     )
     .map_err(|e| e.to_string())?;
     // Plots the fleet step decides (outliers, unusual effects) while the lock keeps other
@@ -589,12 +590,15 @@ fn run(job: &ScreenJob) -> Result<i32, String> {
                 FailOn::EXIT_CODE
             )
         };
+        let one = matched == 1;
         eprintln!(
             "{head}: {matched} channel{} {}",
-            if matched == 1 { "" } else { "s" },
-            match job.fail_on {
-                FailOn::Fail => "fail a limit of the specification (--fail-on fail)",
-                _ => "flagged (--fail-on flagged)",
+            if one { "" } else { "s" },
+            match (job.fail_on, one) {
+                (FailOn::Fail, true) => "fails a limit of the specification (--fail-on fail)",
+                (FailOn::Fail, false) => "fail a limit of the specification (--fail-on fail)",
+                (_, true) => "is flagged (--fail-on flagged)",
+                (_, false) => "are flagged (--fail-on flagged)",
             }
         );
     }

@@ -128,6 +128,15 @@ pub struct ManifestEntry {
     pub rel: String,
 }
 
+/// An input as a manifest lists it.
+fn entry(i: &Input) -> ManifestEntry {
+    ManifestEntry {
+        key: i.key.clone(),
+        path: i.path.display().to_string(),
+        rel: i.rel.clone(),
+    }
+}
+
 /// The inputs of one shard's current run.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Manifest {
@@ -146,14 +155,7 @@ impl Manifest {
             shard: shard.index,
             shards: shard.count,
             options: options.to_string(),
-            inputs: inputs
-                .iter()
-                .map(|i| ManifestEntry {
-                    key: i.key.clone(),
-                    path: i.path.display().to_string(),
-                    rel: i.rel.clone(),
-                })
-                .collect(),
+            inputs: inputs.iter().map(|i| entry(i)).collect(),
         }
     }
 
@@ -199,7 +201,8 @@ pub struct FleetStepSummary {
     pub shards: u32,
     /// Shards with no manifest yet.
     pub shards_missing: Vec<u32>,
-    /// Inputs listed whose result is not there yet.
+    /// Inputs whose result is not there yet: listed by their shard's manifest, or, for a shard
+    /// that has not run yet, by this run's list of every input.
     pub pending: Vec<ManifestEntry>,
     /// Inputs whose result was computed with other options (not counted).
     pub stale: Vec<ManifestEntry>,
@@ -214,8 +217,8 @@ pub struct FleetStepSummary {
 }
 
 impl FleetStepSummary {
-    /// The shards with no manifest yet as `K/N, …` (`None`: every shard has run): their inputs
-    /// are not among the pending ones, which only a shard's manifest lists.
+    /// The shards with no manifest yet as `K/N, …` (`None`: every shard has run); their inputs
+    /// are among the pending ones.
     pub fn shards_not_run(&self) -> Option<String> {
         (!self.shards_missing.is_empty()).then(|| {
             self.shards_missing
@@ -228,13 +231,16 @@ impl FleetStepSummary {
 }
 
 /// Reads the results of the run's shards (see the module docs for what counts), judges them and
-/// writes `fleet.parquet`, `summary.md` and `fleet.html`.
+/// writes `fleet.parquet`, `summary.md` and `fleet.html`. `inputs`: every input of the run (each
+/// shard lists them all before taking its share), so that the inputs of a shard that has not run
+/// yet are pending too, not only its number.
 pub fn fleet_step(
     layout: &Layout,
     shards: u32,
     options: &str,
     spec: &Spec,
     title: &str,
+    inputs: &[Input],
 ) -> Result<FleetStepSummary, ScreenError> {
     let mut records: Vec<ChannelRecord> = Vec::new();
     let (mut pending, mut stale, mut missing) = (Vec::new(), Vec::new(), Vec::new());
@@ -249,6 +255,11 @@ pub fn fleet_step(
             },
         ) else {
             missing.push(index);
+            let shard = Shard {
+                index,
+                count: shards,
+            };
+            pending.extend(inputs.iter().filter(|i| i.in_shard(shard)).map(entry));
             continue;
         };
         for e in m.inputs {

@@ -204,10 +204,27 @@ pub fn is_sample_type(t: &DataType) -> bool {
     )
 }
 
-const TIME_NAMES: &[&str] = &["time", "timestamp", "t", "time_s"];
+/// Names (any letter case) a time column goes by, in loggers' and ROS exports' spellings; the
+/// unit of one stored as plain numbers is the column's `unit`, `--time-unit`, or the one that
+/// gives a plausible rate (see [`crate::io`]).
+const TIME_NAMES: &[&str] = &[
+    "time",
+    "timestamp",
+    "t",
+    "time_s",
+    "time_ms",
+    "time_us",
+    "time_ns",
+    "timestamp_ms",
+    "timestamp_us",
+    "timestamp_ns",
+    "stamp",
+    "%time",
+    "field.header.stamp",
+];
 
 /// Finds the time column: the one named by `--time-column`, else an Arrow timestamp column, else a
-/// column called `time`/`timestamp`/`t`/`time_s`.
+/// column with one of the [`TIME_NAMES`] (`time`, `timestamp`, `t`, `time_s`, `time_ms`, …).
 pub fn find_time(
     path: &Path,
     schema: &Schema,

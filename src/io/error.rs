@@ -107,7 +107,7 @@ pub enum InputError {
         row: u64,
         value: String,
     },
-    #[error("{path}: column {column:?}, row {row}: timestamp {this_s} s repeats the previous one")]
+    #[error("{path}: column {column:?}, row {row}: timestamp {} s repeats the previous one", seconds(*.this_s))]
     DuplicateTimestamp {
         path: PathBuf,
         column: String,
@@ -115,7 +115,9 @@ pub enum InputError {
         this_s: f64,
     },
     #[error(
-        "{path}: column {column:?}, row {row}: timestamp {this_s} s goes back from {previous_s} s"
+        "{path}: column {column:?}, row {row}: timestamp {} s goes back from {} s",
+        seconds(*.this_s),
+        seconds(*.previous_s)
     )]
     NonMonotonicTime {
         path: PathBuf,
@@ -124,7 +126,7 @@ pub enum InputError {
         previous_s: f64,
         this_s: f64,
     },
-    #[error("{path}: column {column:?}, row {row}: gap of {gap_s} s ({missing} samples missing) after t = {after_s} s; use --on-gap ignore|fill to continue")]
+    #[error("{path}: column {column:?}, row {row}: gap of {} s ({missing} samples missing) after t = {} s; use --on-gap ignore|fill to continue", seconds(*.gap_s), seconds(*.after_s))]
     Gap {
         path: PathBuf,
         column: String,
@@ -140,9 +142,15 @@ pub enum InputError {
         second: String,
     },
     #[error(
-        "{path}: no sample rate: add schema metadata sample_rate_hz, a time column, or pass --rate"
+        "{path}: no sample rate: add schema metadata sample_rate_hz, a time column, or pass --rate{}",
+        time_hint(candidates)
     )]
-    NoRate { path: PathBuf },
+    NoRate {
+        path: PathBuf,
+        /// Columns whose names suggest a time (they hold `time` or `stamp`) that the automatic
+        /// choice does not take (see [`crate::io::channels::find_time`]).
+        candidates: Vec<String>,
+    },
     #[error("{path}: invalid sample rate {rate_hz} Hz from {source_name}")]
     InvalidRate {
         path: PathBuf,
@@ -178,6 +186,36 @@ pub enum InputError {
 fn line_text(line: Option<u64>) -> String {
     line.map(|l| format!(" (line {l} of the file)"))
         .unwrap_or_default()
+}
+
+/// Seconds since the first sample as a person reads them: to the nanosecond, trailing zeros
+/// dropped (a gap of 0.10250000000000625 s, the float sum of its timestamps, reads 0.1025 s).
+fn seconds(t: f64) -> String {
+    if !t.is_finite() {
+        return t.to_string();
+    }
+    let text = format!("{t:.9}");
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    if text == "-0" {
+        "0".into()
+    } else {
+        text.into()
+    }
+}
+
+/// The end of [`InputError::NoRate`]'s message: the columns that may be the time.
+fn time_hint(candidates: &[String]) -> String {
+    match candidates {
+        [] => String::new(),
+        [one] => format!("; if column {one:?} is the time, say so with --time-column {one:?}"),
+        more => format!(
+            "; if one of the columns {} is the time, name it with --time-column",
+            more.iter()
+                .map(|c| format!("{c:?}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
 }
 
 fn csv_at(row: Option<u64>, line: Option<u64>) -> String {
@@ -241,7 +279,7 @@ impl InputError {
             | NonMonotonicTime { path, .. }
             | Gap { path, .. }
             | RateConflict { path, .. }
-            | NoRate { path }
+            | NoRate { path, .. }
             | InvalidRate { path, .. }
             | NoInertialChannel { path, .. }
             | OptionOutOfRange { path, .. }
@@ -280,5 +318,20 @@ impl InputError {
             Corrupt { row, .. } | MalformedCsv { row, .. } => *row,
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::seconds;
+
+    #[test]
+    fn seconds_read_as_a_person_writes_them() {
+        assert_eq!(seconds(0.102_500_000_000_006_25), "0.1025");
+        // An f32 timestamp's own value, to the nanosecond.
+        assert_eq!(seconds(29.990_000_009_536_743), "29.99000001");
+        assert_eq!(seconds(30.0), "30");
+        assert_eq!(seconds(-0.0), "0");
+        assert_eq!(seconds(f64::NAN), "NaN");
     }
 }

@@ -193,6 +193,16 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Recording, InputError>
         }
         return Err(InputError::NoRate {
             path: path.to_path_buf(),
+            candidates: schema
+                .fields()
+                .iter()
+                .map(|f| f.name())
+                .filter(|n| {
+                    let n = n.to_ascii_lowercase();
+                    n.contains("time") || n.contains("stamp")
+                })
+                .cloned()
+                .collect(),
         });
     };
     for &(other, _, label) in &given[1..] {

@@ -32,7 +32,9 @@
 //! upper bound is a contradiction, and `contradicts_read_off` says so (for B only where the
 //! minimum lies inside the τ grid: at its end the curve has not turned). A term one fit kept and
 //! the other bounds below the first one's interval is a disagreement too: its interval then starts
-//! at 0.
+//! at 0 — unless the fit that kept it is the term's home (B, K, R the Allan fit, Q the spectrum)
+//! and the bound lies within both fits' scatter of it (no warning): a bound from the fit that
+//! hardly sees the term's regime is then no reason to doubt the one that does.
 
 use serde::Serialize;
 
@@ -444,8 +446,6 @@ pub fn combine(
                 let substituted = other
                     .is_some_and(|f| f.estimates.iter().any(|n| n.ambiguous_with == Some(term)));
                 if let Some(u) = upper(other).filter(|&u| u < e.lo && !blind && !substituted) {
-                    c.lo = 0.0;
-                    c.hull = true;
                     let (allan, spectrum) = match domain {
                         Domain::Allan => (e.value, u),
                         Domain::Spectrum => (u, e.value),
@@ -454,7 +454,18 @@ pub fn combine(
                     // fits' scatter counted (see `beyond_bound`).
                     let p = confidence(allan_fit, spectrum_fit);
                     let s_e = log_sd(e, p);
-                    if e.ambiguous_with.is_none() && beyond_bound(e.value, s_e, u, p) {
+                    let significant = beyond_bound(e.value, s_e, u, p);
+                    // A bound from outside the term's home that its scatter explains is no
+                    // reason to doubt the home fit's estimate (a 40-min spectrum bounded B at
+                    // 1.9 °/h, its lowest band holding B's excess at a fifth of the floor, beside
+                    // an Allan fit of [2.6, 3.2] °/h on a 3-°/h gyro: the hull to 0 made B
+                    // unfailable in a screen).
+                    let home_keeps_it = home(term) == Some(domain) && e.ambiguous_with.is_none();
+                    if significant || !home_keeps_it {
+                        c.lo = 0.0;
+                        c.hull = true;
+                    }
+                    if e.ambiguous_with.is_none() && significant {
                         warnings.push(FitWarning::DomainsDisagree {
                             term,
                             allan,
@@ -486,12 +497,10 @@ pub fn combine(
                 if a.hi < s.lo || s.hi < a.lo {
                     // Disagreement: the value from the term's home domain, where its slope regime
                     // is widest (B, K, R at long τ; Q at high frequency).
-                    c = match term {
-                        Term::BiasInstability | Term::RateRandomWalk | Term::RateRamp => {
-                            pick(a, Domain::Allan)
-                        }
-                        Term::Quantization => pick(s, Domain::Spectrum),
-                        Term::RandomWalk => c,
+                    c = match home(term) {
+                        Some(Domain::Allan) => pick(a, Domain::Allan),
+                        Some(Domain::Spectrum) => pick(s, Domain::Spectrum),
+                        None => c,
                     };
                     c.lo = a.lo.min(s.lo);
                     c.hi = a.hi.max(s.hi);
@@ -540,8 +549,12 @@ pub fn combine(
 }
 
 /// Whether `fit` kept every neighbour of `term` (the terms of adjacent slope: Q–N–B–K–R) that
-/// `other` kept: a fit that lacks a neighbour the other one found lets its estimate of `term`
-/// absorb that neighbour's power (a spectrum without K reads B high).
+/// `other` found: a fit that lacks a neighbour the other one found lets its estimate of `term`
+/// absorb that neighbour's power (a spectrum without K reads B high). A neighbour `other` kept
+/// with an interval down to 0 is not found: that fit cannot say it is there. (An Allan fit of a
+/// 400-Hz accelerometer kept a Q of [0, 0.33] mm/s that the spectrum bounded; by the neighbour
+/// rule N then came from the Allan fit, 2.6 % low with an interval missing the truth, beside a
+/// spectrum N five times as precise and on it.)
 fn complete(fit: Option<&NoiseFit>, other: Option<&NoiseFit>, term: Term) -> bool {
     let (Some(fit), Some(other)) = (fit, other) else {
         return false;
@@ -551,7 +564,17 @@ fn complete(fit: Option<&NoiseFit>, other: Option<&NoiseFit>, term: Term) -> boo
         .into_iter()
         .flatten()
         .filter_map(|j| Term::ALL.get(j))
-        .all(|&u| other.get(u).is_none() || fit.get(u).is_some())
+        .all(|&u| other.get(u).is_none_or(|e| e.lo <= 0.0) || fit.get(u).is_some())
+}
+
+/// The fit whose range covers the term's slope regime widest: B, K and R the Allan variance's
+/// long τ, Q the spectrum's high frequencies; N both.
+fn home(term: Term) -> Option<Domain> {
+    match term {
+        Term::BiasInstability | Term::RateRandomWalk | Term::RateRamp => Some(Domain::Allan),
+        Term::Quantization => Some(Domain::Spectrum),
+        Term::RandomWalk => None,
+    }
 }
 
 fn pick(e: &TermEstimate, source: Domain) -> CombinedTerm {
@@ -796,6 +819,63 @@ mod tests {
 
     fn fit(domain: Domain, estimates: Vec<TermEstimate>, upper: Vec<(Term, f64)>) -> NoiseFit {
         crate::model::result::fit_for_tests(domain, estimates, upper)
+    }
+
+    /// B kept by the Allan fit (its home), bounded a little below its interval by the spectrum:
+    /// the Allan interval stands. Kept by the spectrum and bounded so by the Allan fit, it may
+    /// not be there at all: the interval starts at 0. Bounded far below (beyond both fits'
+    /// scatter), the Allan fit's too, with a warning.
+    #[test]
+    fn a_bound_from_outside_the_home_within_its_scatter_leaves_the_home_interval() {
+        let b = Term::BiasInstability;
+        let kept = est(b, 2.85, 0.07);
+        let a = fit(Domain::Allan, vec![kept], vec![]);
+        let s = fit(Domain::Spectrum, vec![], vec![(b, 2.55)]);
+        let c = combine(Some(&a), Some(&s), None);
+        let got = c.get(b).unwrap();
+        assert!(!got.hull && got.lo == kept.lo, "{got:?}");
+        assert!(c.warnings.is_empty());
+        let a = fit(Domain::Allan, vec![], vec![(b, 2.55)]);
+        let s = fit(Domain::Spectrum, vec![kept], vec![]);
+        let got = *combine(Some(&a), Some(&s), None).get(b).unwrap();
+        assert!(got.hull && got.lo == 0.0, "{got:?}");
+        let a = fit(Domain::Allan, vec![kept], vec![]);
+        let s = fit(Domain::Spectrum, vec![], vec![(b, 0.3)]);
+        let c = combine(Some(&a), Some(&s), None);
+        assert!(c.get(b).unwrap().hull && c.get(b).unwrap().lo == 0.0);
+        assert!(matches!(c.warnings[0], FitWarning::DomainsDisagree { .. }));
+    }
+
+    /// A neighbour whose interval reaches 0 does not pull the term to its fit: N comes from the
+    /// more precise spectrum beside an Allan fit that kept a Q of [0, …]; with that Q's interval
+    /// off 0 it would come from the Allan fit.
+    #[test]
+    fn a_neighbour_down_to_zero_is_not_found() {
+        let mut q = est(Term::Quantization, 0.15, 0.5);
+        q.lo = 0.0;
+        let a = fit(
+            Domain::Allan,
+            vec![q, est(Term::RandomWalk, 0.229, 0.025)],
+            vec![],
+        );
+        let s = fit(
+            Domain::Spectrum,
+            vec![est(Term::RandomWalk, 0.235, 0.005)],
+            vec![(Term::Quantization, 0.13)],
+        );
+        let c = combine(Some(&a), Some(&s), None);
+        let n = c.get(Term::RandomWalk).unwrap();
+        assert_eq!(n.source, Domain::Spectrum, "{n:?}");
+        let a = fit(
+            Domain::Allan,
+            vec![
+                est(Term::Quantization, 0.15, 0.5),
+                est(Term::RandomWalk, 0.229, 0.025),
+            ],
+            vec![],
+        );
+        let c = combine(Some(&a), Some(&s), None);
+        assert_eq!(c.get(Term::RandomWalk).unwrap().source, Domain::Allan);
     }
 
     /// K's bound comes from the Allan fit whichever fit kept it: a spectrum that kept K

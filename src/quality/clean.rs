@@ -225,6 +225,19 @@ impl Cleaner {
                 })
                 .collect(),
         };
+        let mut report = report;
+        let accel: Vec<usize> = (0..self.specs.len())
+            .filter(|&c| self.specs[c].kind == crate::units::Kind::Accel)
+            .collect();
+        let means: Vec<f64> = accel
+            .iter()
+            .map(|&c| report.channels[c].summary.mean)
+            .collect();
+        if let Some(v) = super::gravity_scale(&means) {
+            for &c in &accel {
+                report.channels[c].verdicts.push(v.clone());
+            }
+        }
         Ok((chunk, report))
     }
 

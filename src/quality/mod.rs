@@ -238,6 +238,40 @@ pub enum ChannelVerdict {
     },
     /// No unit from the file or `--unit`: analysed as a plain number (aux), not as gyro or accel.
     NoUnit,
+    /// The accelerometer channels' means add up to a magnitude (`norm`, m/s² as read) that a
+    /// static recording has only in another unit: gravity read in `likely` where the file or a
+    /// flag said otherwise (g given as m/s² reads 1.0 m/s²; m/s² given as g, 96 m/s²).
+    /// Analysed as labelled, so every accelerometer coefficient may be off by that factor.
+    GravityScale { norm: f64, likely: String },
+}
+
+/// Tolerance of [`gravity_scale`]'s match of the accelerometers' mean magnitude to a unit
+/// confusion: a static sensor's reading of gravity is within a few percent of standard gravity
+/// (latitude, altitude, its bias), a moving one matches such a factor only by chance.
+const GRAVITY_TOLERANCE: f64 = 0.05;
+
+/// The [`ChannelVerdict::GravityScale`] of a recording whose accelerometer channels have these
+/// means (SI, as read), if their magnitude is standard gravity read in a confused unit.
+pub fn gravity_scale(accel_means: &[f64]) -> Option<ChannelVerdict> {
+    if accel_means.is_empty() || accel_means.iter().any(|m| !m.is_finite()) {
+        return None;
+    }
+    let norm = accel_means.iter().map(|m| m * m).sum::<f64>().sqrt();
+    let g = crate::units::STANDARD_GRAVITY;
+    // What standard gravity reads as, in m/s², when its values are in the first unit named and
+    // were converted from the second. Confusions that shrink gravity below 0.5 m/s² (g read as mg:
+    // 0.0098) are left out: a pair of horizontal axes' biases reads that much.
+    [
+        (1.0, "g, read as m/s²"),
+        (g * g, "m/s², read as g"),
+        (1e3 * g, "mg, read as g"),
+    ]
+    .into_iter()
+    .find(|(reads, _)| (norm / reads - 1.0).abs() <= GRAVITY_TOLERANCE)
+    .map(|(_, likely)| ChannelVerdict::GravityScale {
+        norm,
+        likely: likely.into(),
+    })
 }
 
 impl ChannelVerdict {
@@ -281,6 +315,11 @@ impl ChannelVerdict {
                 )
             }
             ChannelVerdict::NoUnit => NO_UNIT_TEXT.into(),
+            ChannelVerdict::GravityScale { norm, likely } => format!(
+                "the accelerometers' means have a magnitude of {norm:.4} m/s² as labelled, where a \
+                 static sensor reads gravity, 9.807 m/s²: the values look like {likely}; check \
+                 the unit (--unit) before using any accelerometer coefficient"
+            ),
         }
     }
 }
@@ -342,4 +381,37 @@ pub struct ChannelQuality {
     pub verdicts: Vec<ChannelVerdict>,
     #[serde(flatten)]
     pub summary: ChannelSummary,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{gravity_scale, ChannelVerdict};
+
+    /// Gravity in g read as m/s² (one vertical axis, or three tilted), in m/s² read as g, in mg
+    /// read as g; a right reading, a pair of level axes and a moving sensor get nothing.
+    #[test]
+    fn gravity_in_the_wrong_unit_is_named() {
+        let g = crate::units::STANDARD_GRAVITY;
+        let likely = |means: &[f64]| match gravity_scale(means) {
+            Some(ChannelVerdict::GravityScale { likely, .. }) => Some(likely),
+            _ => None,
+        };
+        assert_eq!(
+            likely(&[0.01, -0.02, 1.0]).as_deref(),
+            Some("g, read as m/s²")
+        );
+        assert_eq!(likely(&[0.5, 0.5, 0.7]).as_deref(), Some("g, read as m/s²"));
+        assert_eq!(
+            likely(&[0.0, 0.0, g * g]).as_deref(),
+            Some("m/s², read as g")
+        );
+        assert_eq!(
+            likely(&[0.0, 0.0, -1e3 * g]).as_deref(),
+            Some("mg, read as g")
+        );
+        assert_eq!(likely(&[0.02, 0.0, g]), None);
+        assert_eq!(likely(&[0.01, 0.003]), None);
+        assert_eq!(likely(&[3.0, 2.0, 4.0]), None);
+        assert_eq!(likely(&[]), None);
+    }
 }

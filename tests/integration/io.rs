@@ -756,6 +756,38 @@ fn malformed_csv_records_name_row_and_line() {
     let e = err_of(&path, &csv_inputs(512));
     assert!(e.to_string().contains("a header line"), "{e}");
 
+    // A byte-order mark before the header (a spreadsheet's UTF-8 export): the first column is
+    // still `time`, and gives the rate.
+    let mut bytes = "\u{feff}time [s],g [rad/s]\n".as_bytes().to_vec();
+    for i in 0..200 {
+        bytes.extend_from_slice(format!("{},{}\n", i as f64 / 50.0, (i % 7) as f64).as_bytes());
+    }
+    std::fs::write(&path, &bytes).unwrap();
+    let r = io::open(&path, &OpenOptions::default()).unwrap();
+    assert_eq!(r.rate_hz, 50.0);
+    assert_eq!(r.time.as_ref().map(|t| t.name.as_str()), Some("time"));
+
+    // A time column under a name not taken automatically: the error names it and the flag.
+    write_csv_text(
+        &path,
+        "clock,g [rad/s]",
+        (0..50).map(|i| format!("{},{}", i as f64 / 50.0, i % 3)),
+    );
+    let e = io::open(&path, &OpenOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no sample rate"), "{e}");
+    assert!(!e.contains("--time-column"), "no candidate: {e}");
+    write_csv_text(
+        &path,
+        "sensor_time,g [rad/s]",
+        (0..50).map(|i| format!("{},{}", i as f64 / 50.0, i % 3)),
+    );
+    let e = io::open(&path, &OpenOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("--time-column \"sensor_time\""), "{e}");
+
     // Another separator (a spreadsheet's export with decimal commas): the header is one column
     // holding the separator; the error says so instead of counting fields in the first row.
     for (sep, what) in [(";", "semicolons"), ("\t", "tabs")] {

@@ -349,6 +349,10 @@ fn shards_give_the_single_runs_table_and_reruns_recompute_only_what_changed() {
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
         per_shard.push(lines_starting(&o, "done  "));
         let summary = std::fs::read_to_string(tmp.path().join("many/summary.md")).unwrap();
+        // Every input not computed yet is pending, those of the shards not run yet included.
+        let done: usize = per_shard.iter().sum();
+        let pending = format!("| pending (not computed yet) | {}", 9 - done);
+        assert!(summary.contains(&pending), "{pending}: {summary}");
         if k < 2 {
             assert!(summary.contains("shards not run yet"), "{summary}");
         }

@@ -97,6 +97,9 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
     let mut names = Vec::with_capacity(header.fields.len());
     for (i, bytes) in header.fields.iter().enumerate() {
         match std::str::from_utf8(bytes) {
+            // A byte-order mark (spreadsheets write one) is no part of the first name: kept, it
+            // hid a column called `time` and the file had "no sample rate".
+            Ok(text) if i == 0 => names.push(text.trim_start_matches('\u{feff}').to_string()),
             Ok(text) => names.push(text.to_string()),
             Err(_) => {
                 return Err(malformed(
