@@ -302,6 +302,16 @@ impl Sinusoid {
         self.amplitude * self.amplitude * s.powi(4) / (x * x)
     }
 
+    /// The Allan variance of the line point-sampled at `rate_hz` (the amplitude the samples hold,
+    /// the crate's convention for lines): the mean of m point samples of a sine has the
+    /// amplitude Ω₀·sin(x)/(m·sin(x/m)), x = πf₀τ, where the continuous mean has Ω₀·sin(x)/x, so
+    /// this is [`Sinusoid::avar`] over sinc²(πf₀/rate).
+    pub fn avar_point_sampled(&self, tau: f64, rate_hz: f64) -> f64 {
+        let half = PI * self.freq_hz / rate_hz;
+        let sinc = if half == 0.0 { 1.0 } else { half.sin() / half };
+        self.avar(tau) / (sinc * sinc)
+    }
+
     /// Power of each of the two spectral lines of the two-sided PSD (at ±f₀): Ω₀²/4. A one-sided
     /// spectrum shows Ω₀²/2 at f₀.
     pub fn line_power(&self) -> f64 {

@@ -60,6 +60,12 @@ pub enum CoefUnit {
     DegPerSPerSqrtHz,
     #[serde(rename = "deg/sqrt(h)")]
     DegPerSqrtH,
+    /// (°/h)/√Hz: the datasheet unit of fibre-optic and tactical gyros' noise density.
+    #[serde(rename = "deg/h/sqrt(Hz)")]
+    DegPerHPerSqrtHz,
+    /// (mdps)/√Hz, thousandths of a degree per second: MEMS datasheets'.
+    #[serde(rename = "mdps/sqrt(Hz)")]
+    MilliDpsPerSqrtHz,
     // Gyro, bias instability.
     #[serde(rename = "rad/s")]
     RadPerS,
@@ -93,6 +99,8 @@ pub enum CoefUnit {
     MPerSPerSqrtH,
     #[serde(rename = "ug/sqrt(Hz)")]
     MicroGPerSqrtHz,
+    #[serde(rename = "mg/sqrt(Hz)")]
+    MilliGPerSqrtHz,
     // Accel, bias instability.
     #[serde(rename = "m/s^2")]
     MPerS2,
@@ -107,6 +115,13 @@ pub enum CoefUnit {
     /// µg/√s.
     #[serde(rename = "ug/sqrt(s)")]
     MicroGPerSqrtS,
+    /// (m/s²)/√h: an acceleration random walk per root hour.
+    #[serde(rename = "m/s^2/sqrt(h)")]
+    MPerS2PerSqrtH,
+    #[serde(rename = "ug/sqrt(h)")]
+    MicroGPerSqrtH,
+    #[serde(rename = "mg/sqrt(h)")]
+    MilliGPerSqrtH,
     // Accel, ramp.
     #[serde(rename = "m/s^3")]
     MPerS3,
@@ -155,6 +170,26 @@ const TABLE: &[(CoefUnit, Sensor, Term, f64, &[&str])] = {
             N,
             DEG / SQRT_HOUR,
             &["deg/sqrt(h)", "deg/sqrt(hr)", "°/√h", "°/√hr"],
+        ),
+        (
+            DegPerHPerSqrtHz,
+            G,
+            N,
+            DEG / HOUR,
+            &[
+                "deg/h/sqrt(hz)",
+                "(deg/h)/sqrt(hz)",
+                "deg/hr/sqrt(hz)",
+                "°/h/√hz",
+                "(°/h)/√hz",
+            ],
+        ),
+        (
+            MilliDpsPerSqrtHz,
+            G,
+            N,
+            DEG * 1e-3,
+            &["mdps/sqrt(hz)", "mdps/√hz", "mdeg/s/sqrt(hz)"],
         ),
         (RadPerS, G, B, 1.0, &["rad/s"]),
         (DegPerS, G, B, DEG, &["deg/s", "°/s"]),
@@ -215,6 +250,13 @@ const TABLE: &[(CoefUnit, Sensor, Term, f64, &[&str])] = {
             MICRO_G,
             &["ug/sqrt(hz)", "µg/√hz", "μg/√hz", "µg/sqrt(hz)"],
         ),
+        (
+            MilliGPerSqrtHz,
+            A,
+            N,
+            MICRO_G * 1e3,
+            &["mg/sqrt(hz)", "mg/√hz"],
+        ),
         (MPerS2, A, B, 1.0, &["m/s^2", "m/s²"]),
         (MicroG, A, B, MICRO_G, &["ug", "µg", "μg"]),
         (MilliG, A, B, MICRO_G * 1e3, &["mg"]),
@@ -231,6 +273,27 @@ const TABLE: &[(CoefUnit, Sensor, Term, f64, &[&str])] = {
             K,
             MICRO_G,
             &["ug/sqrt(s)", "µg/√s", "μg/√s"],
+        ),
+        (
+            MPerS2PerSqrtH,
+            A,
+            K,
+            1.0 / SQRT_HOUR,
+            &["m/s^2/sqrt(h)", "m/s²/√h", "m/s^2/sqrt(hr)"],
+        ),
+        (
+            MicroGPerSqrtH,
+            A,
+            K,
+            MICRO_G / SQRT_HOUR,
+            &["ug/sqrt(h)", "µg/√h", "μg/√h", "ug/sqrt(hr)"],
+        ),
+        (
+            MilliGPerSqrtH,
+            A,
+            K,
+            MICRO_G * 1e3 / SQRT_HOUR,
+            &["mg/sqrt(h)", "mg/√h", "mg/sqrt(hr)"],
         ),
         (MPerS3, A, R, 1.0, &["m/s^3", "m/s³"]),
         (MicroGPerS, A, R, MICRO_G, &["ug/s", "µg/s", "μg/s"]),
@@ -467,6 +530,64 @@ mod tests {
         assert!(close(MicroG.to_si(1.0), 9.80665e-6));
         assert!(close(MilliG.convert(1.0, MicroG).unwrap(), 1000.0));
         assert!(close(MPerS.convert(0.002, MilliMPerS).unwrap(), 2.0));
+    }
+
+    /// The README's list of coefficient units is the table's.
+    #[test]
+    fn the_readme_lists_every_coefficient_unit() {
+        let readme = include_str!("../../README.md");
+        let start = readme
+            .find("Coefficient units (any letter case")
+            .expect("the list");
+        let list = &readme[start..start + readme[start..].find("\n\n").unwrap_or(2000)];
+        for r in TABLE {
+            let label = r.0.label();
+            let listed = list
+                .split([',', ';', ' ', '\n'])
+                .any(|w| w.trim_end_matches('.') == label);
+            assert!(listed, "README's unit list lacks {label}");
+        }
+    }
+
+    /// Datasheet spellings of noise densities and random walks convert as their definitions say:
+    /// (°/h)/√Hz is 1/60 °/√h, 1 mdps/√Hz is 3.6 °/h/√Hz, 1 mg/√h is 1000/60 µg/√s.
+    #[test]
+    fn datasheet_densities_convert() {
+        use CoefUnit::*;
+        let eq = |a: f64, b: f64| (a / b - 1.0).abs() < 1e-12;
+        assert!(eq(
+            DegPerHPerSqrtHz.convert(60.0, DegPerSqrtH).unwrap(),
+            1.0
+        ));
+        assert!(eq(
+            MilliDpsPerSqrtHz.convert(1.0, DegPerHPerSqrtHz).unwrap(),
+            3.6
+        ));
+        assert!(eq(
+            MilliGPerSqrtHz.convert(1.0, MicroGPerSqrtHz).unwrap(),
+            1e3
+        ));
+        assert!(eq(
+            MilliGPerSqrtH.convert(1.0, MicroGPerSqrtS).unwrap(),
+            1e3 / 60.0
+        ));
+        assert!(eq(
+            MPerS2PerSqrtH.convert(60.0, MPerS2PerSqrtS).unwrap(),
+            1.0
+        ));
+        assert!(eq(
+            MicroGPerSqrtH.convert(60.0, MicroGPerSqrtS).unwrap(),
+            1.0
+        ));
+        assert_eq!(
+            "0.5 deg/h/sqrt(Hz)"
+                .split_once(' ')
+                .unwrap()
+                .1
+                .parse::<CoefUnit>()
+                .unwrap(),
+            DegPerHPerSqrtHz
+        );
     }
 
     #[test]

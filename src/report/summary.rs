@@ -435,7 +435,7 @@ pub fn effect_line(e: &Effect, units: &EffectUnits) -> String {
     let v = Shown::value(units.value);
     match e {
         Effect::Sinusoid(s) => format!(
-            "line at {:.4} Hz [{:.4}, {:.4}], amplitude {}",
+            "line at {:.4} Hz [{:.4}, {:.4}], amplitude (as sampled) {}",
             s.freq_hz,
             s.freq_lo,
             s.freq_hi,

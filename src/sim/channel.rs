@@ -33,10 +33,12 @@ pub struct ChannelTruth {
     /// Planted deterministic bias drift (not in [`ChannelTruth::avar`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub drift: Option<DriftSpec>,
+    /// The sample rate, Hz: the sinusoids are point-sampled at it.
+    pub rate_hz: f64,
 }
 
 impl ChannelTruth {
-    pub(crate) fn of(spec: &ChannelSpec) -> ChannelTruth {
+    pub(crate) fn of(spec: &ChannelSpec, rate_hz: f64) -> ChannelTruth {
         ChannelTruth {
             bias: spec.bias,
             coefficients: spec.noise,
@@ -54,6 +56,7 @@ impl ChannelTruth {
             spike_indices: Vec::new(),
             resonances: spec.resonances.clone(),
             drift: spec.drift,
+            rate_hz,
         }
     }
 
@@ -63,7 +66,11 @@ impl ChannelTruth {
     pub fn avar(&self, tau: f64) -> f64 {
         self.coefficients.avar(tau)
             + self.gauss_markov.iter().map(|g| g.avar(tau)).sum::<f64>()
-            + self.sinusoids.iter().map(|s| s.avar(tau)).sum::<f64>()
+            + self
+                .sinusoids
+                .iter()
+                .map(|s| s.avar_point_sampled(tau, self.rate_hz))
+                .sum::<f64>()
     }
 }
 

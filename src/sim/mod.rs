@@ -13,8 +13,9 @@
 //! outputs delta angles or delta velocities delivers: the IEEE Allan variances then hold exactly
 //! from τ = τ₀ on, and the spectra are the IEEE ones through sinc² and folded at Nyquist
 //! ([`Term::psd_sampled_unit`](crate::model::Term::psd_sampled_unit)), which is what the fits
-//! in [`crate::model`] assume. The exception is a resonance, point-sampled as the residual loop's
-//! resonance shape assumes (its spectrum has no sinc²; see [`ResonanceSpec`]).
+//! in [`crate::model`] assume. The exceptions are a resonance, point-sampled as the residual loop's
+//! resonance shape assumes (its spectrum has no sinc²; see [`ResonanceSpec`]), and a sinusoid,
+//! point-sampled so that its amplitude is the one in the samples, as the loop reports lines.
 //!
 //! Same seed, same samples, on any machine and whatever the thread count: each channel and each
 //! component has its own stream of a small generator of ours ([`rng`]), and the components are
@@ -181,7 +182,7 @@ pub fn simulate(spec: &SimSpec) -> Result<Simulation, SimError> {
                         .into_iter()
                         .map(|(i, _)| i)
                         .collect(),
-                    ..ChannelTruth::of(ch)
+                    ..ChannelTruth::of(ch, fs)
                 }),
             }
         })

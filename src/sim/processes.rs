@@ -167,25 +167,22 @@ pub fn add_drift(y: &mut [f64], rate_hz: f64, d: &DriftSpec) {
     }
 }
 
-/// A·sin(2πf₀t + φ), averaged over each interval: amplitude A·sinc(πf₀τ₀) at the interval's
-/// centre.
+/// A·sin(2πf₀t + φ), point-sampled at each interval's centre: the samples hold amplitude A (the
+/// crate's convention for lines, see [`crate::effects::time::sinusoid`]).
 pub fn add_sinusoid(y: &mut [f64], rate_hz: f64, s: &SinusoidSpec, rng: &mut Rng) {
     if let Some(wander) = &s.wander {
         add_wandering_line(y, rate_hz, s, wander, rng);
         return;
     }
     let w = TAU * s.freq_hz / rate_hz;
-    let half = w / 2.0;
-    let gain = if half == 0.0 { 1.0 } else { half.sin() / half };
     for (i, v) in y.iter_mut().enumerate() {
-        *v += s.amplitude * gain * (w * (i as f64 + 0.5) + s.phase_rad).sin();
+        *v += s.amplitude * (w * (i as f64 + 0.5) + s.phase_rad).sin();
     }
 }
 
 /// A line whose frequency and amplitude wander (see [`SinusoidSpec::wander`]): the phase is the
 /// running sum of the instantaneous frequency, each sample the point value at its interval's
-/// middle (the wander is slow against the sample interval, so the interval mean's sinc gain of
-/// the coherent line is applied at the nominal frequency).
+/// middle.
 fn add_wandering_line(
     y: &mut [f64],
     rate_hz: f64,
@@ -196,15 +193,13 @@ fn add_wandering_line(
     let tau0 = 1.0 / rate_hz;
     let phi = (-tau0 / wander.wander_tc_s).exp();
     let kick = (1.0 - phi * phi).max(0.0).sqrt();
-    let half = std::f64::consts::PI * s.freq_hz * tau0;
-    let gain = if half == 0.0 { 1.0 } else { half.sin() / half };
     let (mut df, mut da) = (
         wander.freq_wander_hz * rng.gauss(),
         wander.amplitude_wander * rng.gauss(),
     );
     let mut phase = s.phase_rad + TAU * (s.freq_hz + df) * tau0 / 2.0;
     for v in y.iter_mut() {
-        *v += s.amplitude * (1.0 + da) * gain * phase.sin();
+        *v += s.amplitude * (1.0 + da) * phase.sin();
         df = phi * df + kick * wander.freq_wander_hz * rng.gauss();
         da = phi * da + kick * wander.amplitude_wander * rng.gauss();
         phase += TAU * (s.freq_hz + df) * tau0;
@@ -280,7 +275,7 @@ mod tests {
             freq_hz: 7.3,
         };
         for m in [1usize, 3, 10] {
-            let ratio = oadev(&y, m) / model.avar(m as f64 / fs);
+            let ratio = oadev(&y, m) / model.avar_point_sampled(m as f64 / fs, fs);
             assert!((ratio - 1.0).abs() < 1e-3, "m={m}: {ratio}");
         }
     }
