@@ -198,6 +198,42 @@ impl FromStr for Unit {
     }
 }
 
+/// A unit with a factor in front: `0.00875 deg/s` says one stored count is 0.00875 °/s (a raw
+/// sensor's scale, where a CSV header or `--unit` is the only place to say it); a plain unit has
+/// the factor 1.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScaledUnit {
+    pub factor: f64,
+    pub unit: Unit,
+}
+
+impl From<Unit> for ScaledUnit {
+    fn from(unit: Unit) -> Self {
+        ScaledUnit { factor: 1.0, unit }
+    }
+}
+
+impl FromStr for ScaledUnit {
+    type Err = UnknownUnit;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let text = s.trim();
+        if let Some((number, rest)) = text.split_once(char::is_whitespace) {
+            if let Ok(factor) = number.parse::<f64>() {
+                if !(factor.is_finite() && factor != 0.0) {
+                    return Err(UnknownUnit(format!(
+                        "{s} (the factor must be finite and non-zero)"
+                    )));
+                }
+                return Ok(ScaledUnit {
+                    factor,
+                    unit: rest.parse()?,
+                });
+            }
+        }
+        text.parse::<Unit>().map(ScaledUnit::from)
+    }
+}
+
 /// What a channel is: decides what later stages do with it (noise model for gyro/accel, regressor for
 /// temperature/aux).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -284,6 +320,20 @@ mod tests {
                 .any(|w| w.trim_end_matches(['.', ':']) == *spelling);
             assert!(listed, "README's unit list lacks {spelling}");
         }
+    }
+
+    /// A count's worth in a unit: the factor multiplies, the unit is the unit; a plain unit has
+    /// factor 1; a factor of 0 or a bad unit is refused.
+    #[test]
+    fn a_unit_may_carry_a_factor() {
+        let s: ScaledUnit = "0.00875 deg/s".parse().unwrap();
+        assert_eq!((s.factor, s.unit), (0.00875, Unit::DegPerS));
+        let s: ScaledUnit = " 6.1e-5  g ".parse().unwrap();
+        assert_eq!((s.factor, s.unit), (6.1e-5, Unit::G));
+        let s: ScaledUnit = "m/s^2".parse().unwrap();
+        assert_eq!((s.factor, s.unit), (1.0, Unit::MPerS2));
+        assert!("0 deg/s".parse::<ScaledUnit>().is_err());
+        assert!("2 furlongs".parse::<ScaledUnit>().is_err());
     }
 
     #[test]

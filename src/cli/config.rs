@@ -9,7 +9,7 @@ use imunoise::pipeline::{AvarWork, Inputs, TauSpec, WelchWork, Work};
 use imunoise::psd::{Scaling, WelchConfig};
 use imunoise::quality::QualityOptions;
 use imunoise::report::Formats;
-use imunoise::units::{Kind, Unit};
+use imunoise::units::{Kind, ScaledUnit};
 use serde_json::{json, Value};
 
 use super::args::{
@@ -207,7 +207,7 @@ fn inputs(
     }
     let columns = ColumnOverrides {
         channels: a.channels.clone(),
-        units: pairs::<Unit>(&a.units, "unit")?,
+        units: pairs::<ScaledUnit>(&a.units, "unit")?,
         kinds: pairs::<Kind>(&a.kinds, "kind")?,
         time_column: a.time_column.clone(),
         ignore_time: a.no_time,

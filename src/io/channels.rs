@@ -7,7 +7,7 @@ use arrow_schema::{DataType, Field, Schema, TimeUnit as ArrowTimeUnit};
 use serde::Serialize;
 
 use super::InputError;
-use crate::units::{Kind, Quantity, Unit};
+use crate::units::{Kind, Quantity, ScaledUnit, Unit};
 
 /// A column chosen for analysis, with everything needed to turn its raw values into SI.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -157,8 +157,8 @@ pub struct TimeSpec {
 pub struct ColumnOverrides {
     /// Analyse only these columns, in this order (all numeric non-time columns when empty).
     pub channels: Vec<String>,
-    /// `(column or "*", unit)`.
-    pub units: Vec<(String, Unit)>,
+    /// `(column or "*", unit)`, the unit with a factor where one count is not one unit.
+    pub units: Vec<(String, ScaledUnit)>,
     /// `(column or "*", kind)`.
     pub kinds: Vec<(String, Kind)>,
     /// The time column's name, when not `time`/`timestamp`.
@@ -170,7 +170,7 @@ pub struct ColumnOverrides {
 }
 
 impl ColumnOverrides {
-    fn unit_for(&self, column: &str) -> Option<Unit> {
+    fn unit_for(&self, column: &str) -> Option<ScaledUnit> {
         lookup(&self.units, column)
     }
     fn kind_for(&self, column: &str) -> Option<Kind> {
@@ -584,13 +584,16 @@ fn channel_spec(
         message,
     };
     let meta = field.metadata();
-    let unit = match overrides.unit_for(&name) {
+    // A unit may carry a factor (`0.00875 deg/s` a count): it multiplies the field's `scale`.
+    let scaled = match overrides.unit_for(&name) {
         Some(u) => Some(u),
         None => match meta.get("unit") {
-            Some(text) => Some(text.parse::<Unit>().map_err(|e| bad(e.to_string()))?),
+            Some(text) => Some(text.parse::<ScaledUnit>().map_err(|e| bad(e.to_string()))?),
             None => None,
         },
     };
+    let unit = scaled.map(|s| s.unit);
+    let factor = scaled.map_or(1.0, |s| s.factor);
     let kind = match overrides.kind_for(&name) {
         Some(k) => k,
         None => match meta.get("kind") {
@@ -622,8 +625,9 @@ fn channel_spec(
                 };
                 return Err(bad(format!(
                     "{what} channel in {given}, which is not {quantity}: give --unit \
-                     {name}=UNIT (e.g. {example}); raw counts need the sensor's scale (field \
-                     metadata scale with a physical unit)"
+                     {name}=UNIT (e.g. {example}); raw counts need the sensor's scale, one \
+                     count's worth in front of the unit (--unit \"{name}=0.00875 {example}\", \
+                     or the CSV header `{name} [0.00875 {example}]`, or field metadata scale)"
                 )));
             }
             None => {
@@ -646,7 +650,7 @@ fn channel_spec(
             s
         }
         None => 1.0,
-    };
+    } * factor;
     Ok(ChannelSpec {
         name,
         column,
@@ -691,7 +695,7 @@ mod tests {
         assert_eq!(ch[0].kind, Kind::Gyro);
         assert!((ch[0].to_si().0 - 0.01 * std::f64::consts::PI / 180.0).abs() < 1e-18);
         assert_eq!(ch[1].kind, Kind::Accel);
-        ov.units.push(("ax".into(), Unit::MilliG));
+        ov.units.push(("ax".into(), Unit::MilliG.into()));
         ov.kinds.push(("*".into(), Kind::Aux));
         let ch = select_channels(p, &schema, Some(&time), &ov).unwrap();
         assert_eq!(ch[1].unit, Some(Unit::MilliG));

@@ -767,6 +767,34 @@ fn malformed_csv_records_name_row_and_line() {
     assert_eq!(r.rate_hz, 50.0);
     assert_eq!(r.time.as_ref().map(|t| t.name.as_str()), Some("time"));
 
+    // Raw counts in a CSV: the header says one count's worth, `[0.01 deg/s]`, and the values
+    // arrive in rad/s; `--unit` says the same where the header cannot.
+    write_csv_text(
+        &path,
+        "time [s],gx [0.01 deg/s]",
+        (0..50).map(|i| format!("{},{}", i as f64 / 50.0, i % 5)),
+    );
+    let read = read_all(&path, &Inputs::default()).unwrap();
+    let deg = std::f64::consts::PI / 180.0;
+    assert!(
+        (read.0[0][3] - 3.0 * 0.01 * deg).abs() < 1e-15,
+        "{:?}",
+        &read.0[0][..5]
+    );
+    write_csv_text(
+        &path,
+        "time [s],gx",
+        (0..50).map(|i| format!("{},{}", i as f64 / 50.0, i % 5)),
+    );
+    let mut flagged = Inputs::default();
+    flagged.open.columns.units = vec![("gx".into(), "0.01 deg/s".parse().unwrap())];
+    let read = read_all(&path, &flagged).unwrap();
+    assert!(
+        (read.0[0][3] - 3.0 * 0.01 * deg).abs() < 1e-15,
+        "{:?}",
+        &read.0[0][..5]
+    );
+
     // A time column under a name not taken automatically: the error names it and the flag.
     write_csv_text(
         &path,
