@@ -204,7 +204,8 @@ pub struct InputArgs {
     pub rate: Option<f64>,
 
     /// Unit of a column, overriding its metadata: COLUMN=UNIT, or *=UNIT for all columns. Units:
-    /// rad/s, mrad/s, deg/s, deg/h, m/s^2, g, mg, ug, degC, K, V, mV, 1. Repeatable.
+    /// rad/s, mrad/s, deg/s, deg/h, m/s^2, g, mg, ug, degC, K, V, mV, 1 (and the spellings the
+    /// README lists). Raw counts: one count's worth in front, COLUMN="0.00875 deg/s". Repeatable.
     #[arg(long = "unit", value_name = "COLUMN=UNIT")]
     pub units: Vec<String>,
 

@@ -225,8 +225,19 @@ impl Shown {
     }
 
     /// A value with its interval: `0.002030 [0.001981, 0.002079] m/s² (0.2070 [0.2020, 0.2120] mg)`.
+    /// An upper end more than [`UNBOUNDED_RATIO`] times the value is `unbounded`: the data set
+    /// no upper limit there (a rival Gauss–Markov process's σ of 5.3e-4 m/s² was printed with an
+    /// upper end of 3037 m/s², 3·10⁵ mg).
     pub fn interval(&self, v: f64, lo: f64, hi: f64) -> String {
-        self.show(|f| format!("{} [{}, {}]", sig4(v * f), sig4(lo * f), sig4(hi * f)))
+        let unbounded = v > 0.0 && hi > UNBOUNDED_RATIO * v;
+        self.show(|f| {
+            let top = if unbounded {
+                "unbounded".to_string()
+            } else {
+                sig4(hi * f)
+            };
+            format!("{} [{}, {top}]", sig4(v * f), sig4(lo * f))
+        })
     }
 
     /// `text(1)` in SI, then `text(factor)` in the other unit: the one layout of every value.
@@ -239,9 +250,25 @@ impl Shown {
     }
 }
 
+/// An interval's upper end beyond this many times its value is printed `unbounded`.
+pub const UNBOUNDED_RATIO: f64 = 1e3;
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_upper_end_a_thousand_times_the_value_is_unbounded() {
+        let s = Shown::value(Some(Unit::MPerS2));
+        assert_eq!(
+            s.interval(5.267e-4, 4.349e-4, 3037.0),
+            "5.267e-4 [4.349e-4, unbounded] m/s² (0.05371 [0.04435, unbounded] mg)"
+        );
+        assert_eq!(
+            s.interval(1.0, 0.5, 999.0),
+            "1.000 [0.5000, 999.0] m/s² (102.0 [50.99, 1.019e5] mg)"
+        );
+    }
 
     #[test]
     fn rates_have_six_significant_digits_and_no_float_noise() {
