@@ -554,31 +554,20 @@ mod tests {
     #[test]
     fn datasheet_densities_convert() {
         use CoefUnit::*;
-        let eq = |a: f64, b: f64| (a / b - 1.0).abs() < 1e-12;
-        assert!(eq(
-            DegPerHPerSqrtHz.convert(60.0, DegPerSqrtH).unwrap(),
-            1.0
-        ));
-        assert!(eq(
-            MilliDpsPerSqrtHz.convert(1.0, DegPerHPerSqrtHz).unwrap(),
-            3.6
-        ));
-        assert!(eq(
-            MilliGPerSqrtHz.convert(1.0, MicroGPerSqrtHz).unwrap(),
-            1e3
-        ));
-        assert!(eq(
-            MilliGPerSqrtH.convert(1.0, MicroGPerSqrtS).unwrap(),
-            1e3 / 60.0
-        ));
-        assert!(eq(
-            MPerS2PerSqrtH.convert(60.0, MPerS2PerSqrtS).unwrap(),
-            1.0
-        ));
-        assert!(eq(
-            MicroGPerSqrtH.convert(60.0, MicroGPerSqrtS).unwrap(),
-            1.0
-        ));
+        for (value, from, to, want) in [
+            (60.0, DegPerHPerSqrtHz, DegPerSqrtH, 1.0),
+            (1.0, MilliDpsPerSqrtHz, DegPerHPerSqrtHz, 3.6),
+            (1.0, MilliGPerSqrtHz, MicroGPerSqrtHz, 1e3),
+            (1.0, MilliGPerSqrtH, MicroGPerSqrtS, 1e3 / 60.0),
+            (60.0, MPerS2PerSqrtH, MPerS2PerSqrtS, 1.0),
+            (60.0, MicroGPerSqrtH, MicroGPerSqrtS, 1.0),
+        ] {
+            let got = from.convert(value, to).unwrap();
+            assert!(
+                (got / want - 1.0).abs() < 1e-12,
+                "{value} {from} = {got} {to}"
+            );
+        }
         assert_eq!(
             "0.5 deg/h/sqrt(Hz)"
                 .split_once(' ')
