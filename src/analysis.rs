@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use crate::avar::{Deviations, Statistic};
 use crate::effects::band::{fit_in_band, BandFits, Series};
-use crate::effects::ramp::{widen_ramp, RampDecision};
+use crate::effects::ramp::{widen_ramp, RampAction, RampDecision};
 use crate::effects::{close_loop_from_base, AuxSeries, LoopConfig, LoopReport};
 use crate::estimate::{ChannelDeviations, ChannelPsd};
 use crate::model::{
@@ -161,6 +161,7 @@ fn fit_and_close(
     let (Some(cfg), Some(binned), Some(dev)) =
         (loop_cfg, &input.psd.binned, oadev(input.deviations))
     else {
+        bound_dropped_ramp(&mut a);
         return a;
     };
     // The loop fits and searches with the base fits' options, inside the band they kept (its
@@ -195,7 +196,37 @@ fn fit_and_close(
         a.combined.warnings.extend(outcome.report.warnings());
         a.residual_loop = Some(outcome.report);
     }
+    bound_dropped_ramp(&mut a);
     a
+}
+
+/// Where the last decision on the rate ramp dropped it (the series did not determine it beside
+/// the random walk), the Allan fit, made again without R, has no word on R at all: the series'
+/// bound, |R̂| + z·SE at the run's confidence, is R's upper limit. Without one, a screen called
+/// an R over its limit `no_estimate` (2 of 3 2-h records with a ramp of 40 °/h² against a limit
+/// of 30: unflagged), and no table had an R row.
+fn bound_dropped_ramp(a: &mut ChannelAnalysis) {
+    let Some(test) = a
+        .ramp_decisions()
+        .last()
+        .filter(|d| d.action == RampAction::Dropped)
+        .map(|d| d.test)
+    else {
+        return;
+    };
+    let Ok(fit) = a.allan.as_mut() else {
+        return;
+    };
+    let r = Term::RateRamp;
+    if fit.get(r).is_some() || fit.upper_limits.iter().any(|u| u.term == r) {
+        return;
+    }
+    let z = crate::stats::norm_isf((1.0 - fit.confidence) / 2.0);
+    let upper = test.ramp.abs() + z * test.se;
+    if upper.is_finite() {
+        fit.upper_limits
+            .push(crate::model::UpperLimit { term: r, upper });
+    }
 }
 
 /// The base fits of one channel from its estimates, and the options they were made with: the OADEV
@@ -250,5 +281,58 @@ fn comparison(
     match (allan, spectrum) {
         (Ok(a), Ok(s)) => compare(a, s),
         _ => Vec::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::effects::ramp::tests::{octave_oadev, series};
+    use crate::psd::{log_bin, welch, WelchConfig};
+
+    /// Clean 30-min records whose Allan fit alone keeps a ramp that the series does not show
+    /// (the seeds of `effects::band`'s test): the ramp is dropped, and R still has an upper limit,
+    /// the series' |R̂| + z·SE, with and without the loop.
+    #[test]
+    fn a_dropped_ramp_keeps_an_upper_limit() {
+        let fs = 100.0;
+        for seed in [163, 166, 175] {
+            let y = series(11_000_000 + seed, 0.0);
+            let psd = welch(&y, fs, &WelchConfig::new(4096)).unwrap();
+            let binned = log_bin(&psd, 20);
+            let psd = ChannelPsd {
+                channel: "g".into(),
+                psd,
+                binned: Some(binned),
+            };
+            let deviations = ChannelDeviations {
+                channel: "g".into(),
+                statistics: vec![octave_oadev(&y)],
+            };
+            let input = ChannelInput {
+                sensor: Sensor::Gyro,
+                psd: &psd,
+                deviations: &deviations,
+                samples: &y,
+                rate_hz: fs,
+                output_step: None,
+            };
+            let cfg = LoopConfig::with_segment(4096);
+            for with_loop in [None, Some(&cfg)] {
+                let a = analyze_channel(input, &[], &FitOptions::default(), with_loop);
+                let d = a.ramp_decisions().last().copied().expect("decided");
+                assert_eq!(d.action, RampAction::Dropped, "seed {seed}");
+                let fit = a.allan_fit().unwrap();
+                assert!(fit.get(Term::RateRamp).is_none());
+                let upper = crate::model::upper_limit(Some(fit), a.spectrum_fit(), Term::RateRamp)
+                    .expect("an upper limit of R");
+                let z = crate::stats::norm_isf((1.0 - fit.confidence) / 2.0);
+                let want = d.test.ramp.abs() + z * d.test.se;
+                assert!(
+                    (upper / want - 1.0).abs() < 1e-12,
+                    "seed {seed}: {upper} vs {want}"
+                );
+            }
+        }
     }
 }

@@ -167,27 +167,35 @@ pub fn checked_factors(grid: &TauGrid, n: usize, stat: Statistic) -> Result<Vec<
     Ok(ms)
 }
 
-/// The α found at each τ (`alphas`, per averaging factor of `ms`) may not be phase noise
-/// (α > 0) where the α at the next shorter τ is rate noise (α ≤ 0): it is then taken as white
-/// rate noise (α = 0), and the next τ is judged against that.
+/// The α found at each τ (`alphas`, per averaging factor of `ms`, `n` samples) may not be phase
+/// noise (α > 0) where the α at the next shorter τ is rate noise (α ≤ 0): it is then taken as
+/// white rate noise (α = 0). Where fewer than [`super::noise_id::ACF_MIN_POINTS`] τ-averages
+/// leave it to the B1 ratio, it may not be whiter than the α at the next shorter τ at all. Each
+/// τ is judged against the one before as settled.
 ///
-/// Why: both identifications read phase noise out of white rate noise where the τ-averages are
-/// few. B1 (below 30 averages) is a ratio of two variances of a few degrees of freedom each: on
-/// 40-min white-noise records at 100 Hz it said α = +1 at τ = 655 s in 13 of 18 channels. The
-/// lag-1 autocorrelation of n averages scatters by 1/√n, so that white noise passes its δ ≤ −¼
-/// boundary (r₁ ≤ −0.2) with about 8 % probability at 58 averages (one octave point of one of 12 such
-/// records). The EDF of phase noise is 10–20 times that of rate noise there (68 against 3.6 at
-/// 655 s): intervals that narrow covered the true σ in 7 of 25 such points. A rate sensor's noise
-/// does not turn into phase noise at long τ after rate noise at shorter ones; where something
-/// does fall like it (an oscillation averaged out), white rate noise's EDF is the smaller one,
-/// so the interval errs wide. Phase noise after phase noise (a clock's white PM) and every
-/// redder α stand, so Stable32's identification of clock data is untouched.
-fn no_phase_noise_after_rate_noise(ms: &[u64], alphas: &mut [i8]) {
+/// Why: both identifications read whiter noise than there is where the τ-averages are few. B1
+/// is a ratio of two variances of a few degrees of freedom each: on 40-min white-noise records at
+/// 100 Hz it said α = +1 at τ = 655 s in 13 of 18 channels, and on flicker and random-walk
+/// records it said white (α = 0) at the last octave between α = −1 and −2 (EDF 2.16 where
+/// α = −2 gives 1.24). The lag-1 autocorrelation of n averages scatters by 1/√n, so that white
+/// noise passes its δ ≤ −¼ boundary (r₁ ≤ −0.2) with about 8 % probability at 58 averages. A
+/// whiter α has the larger EDF (68 against 3.6 at 655 s for phase against white rate noise):
+/// intervals that narrow covered the true σ in 7 of 25 such points. A rate sensor's noise does
+/// not turn into phase noise at long τ after rate noise at shorter ones, and where the averages
+/// are few the α of the shorter τ, identified on more of them, is the better guess; where the
+/// noise does turn whiter (beyond a Gauss–Markov process's correlation time, an oscillation
+/// averaged out), the redder α's EDF is the smaller one, so the interval errs wide. Phase noise
+/// after phase noise (a clock's white PM) stands, so Stable32's identification of clock data is
+/// untouched where its autocorrelation method rules.
+fn no_whiter_than_the_evidence(ms: &[u64], n: usize, alphas: &mut [i8]) {
     let mut order: Vec<usize> = (0..ms.len()).collect();
     order.sort_by_key(|&i| ms[i]);
     for pair in order.windows(2) {
         let (shorter, here) = (pair[0], pair[1]);
-        if alphas[shorter] <= 0 {
+        let few = n / (ms[here].max(1) as usize) < super::noise_id::ACF_MIN_POINTS;
+        if few {
+            alphas[here] = alphas[here].min(alphas[shorter]);
+        } else if alphas[shorter] <= 0 {
             alphas[here] = alphas[here].min(0);
         }
     }
@@ -210,7 +218,7 @@ fn assemble(
         .par_iter()
         .map(|&m| identify(ps, m, stat).alpha)
         .collect();
-    no_phase_noise_after_rate_noise(&ms, &mut alphas);
+    no_whiter_than_the_evidence(&ms, n, &mut alphas);
     let per_tau: Vec<(i8, f64, (f64, f64))> = ms
         .par_iter()
         .zip(variance.par_iter())
@@ -239,23 +247,30 @@ fn assemble(
 mod tests {
     use super::*;
 
-    /// The rule alone: phase noise after rate noise becomes white rate noise; redder α, and
-    /// phase noise after phase noise (a clock's white PM at every τ), stand.
+    /// The rule alone: with many averages phase noise after rate noise becomes white rate noise
+    /// and redder α stand; with few (B1) nothing is whiter than the shorter τ; phase noise after
+    /// phase noise (a clock's white PM at every τ) stands where the averages are many.
     #[test]
-    fn phase_noise_does_not_follow_rate_noise() {
+    fn the_noise_is_no_whiter_than_the_evidence() {
+        let n = 1_000;
+        // Averages: 500, 250, 62, 31 (autocorrelation), 15, 7, 3 (B1).
         let ms = [2u64, 4, 16, 32, 64, 128, 256];
         let mut a = [0i8, -1, 1, -1, 1, 2, -2];
-        no_phase_noise_after_rate_noise(&ms, &mut a);
-        assert_eq!(a, [0, -1, 0, -1, 0, 0, -2]);
+        no_whiter_than_the_evidence(&ms, n, &mut a);
+        assert_eq!(a, [0, -1, 0, -1, -1, -1, -2]);
         let mut clock = [2i8, 2, 2, 1, 2, 0, 2];
-        no_phase_noise_after_rate_noise(&ms, &mut clock);
-        assert_eq!(clock, [2, 2, 2, 1, 2, 0, 0]);
+        no_whiter_than_the_evidence(&ms, n, &mut clock);
+        assert_eq!(clock, [2, 2, 2, 1, 1, 0, 0]);
+        // Flicker then random walk, B1 reading white at the last octave.
+        let mut red = [0i8, 0, -1, -1, -2, -2, 0];
+        no_whiter_than_the_evidence(&ms, n, &mut red);
+        assert_eq!(red, [0, 0, -1, -1, -2, -2, -2]);
         // The grid's order does not matter.
         let mut reversed = ms;
         reversed.reverse();
         let mut b = [-2i8, 2, 1, -1, 1, -1, 0];
-        no_phase_noise_after_rate_noise(&reversed, &mut b);
-        assert_eq!(b, [-2, 0, 0, -1, 0, -1, 0]);
+        no_whiter_than_the_evidence(&reversed, n, &mut b);
+        assert_eq!(b, [-2, -1, -1, -1, 0, -1, 0]);
     }
 
     /// White rate noise, 40 min at 100 Hz, 12 records: no point of the octave grid is taken for
