@@ -521,6 +521,17 @@ pub fn combine(
         };
         terms.push(combined);
     }
+    // The shortest τ the Allan fit used; without an Allan fit the curve is not known to follow
+    // the model anywhere, and nothing is capped.
+    let fitted_from = allan_fit.and_then(|f| f.points.iter().map(|x| x.x).reduce(f64::min));
+    if let (Some(dev), Some(min_tau)) = (dev, fitted_from) {
+        let p = confidence(allan_fit, spectrum_fit);
+        for t in &mut terms {
+            if let Some(cap) = allan_cap(dev, t.term, p, min_tau) {
+                t.hi = t.hi.min(cap).max(t.value);
+            }
+        }
+    }
     let read_offs = dev.map(read_offs).unwrap_or_default();
     if let Some(dev) = dev {
         for t in &terms {
@@ -691,6 +702,54 @@ fn samples_behind(dev: &Deviations, i: usize) -> usize {
     }) as usize
 }
 
+/// The EDF of point `i` of `dev` for a bound on it: the identified noise's, but never more than
+/// a rate noise (white, flicker or random-walk FM) would give there (see [`allan_bound`]).
+fn bound_edf(dev: &Deviations, i: usize) -> Option<f64> {
+    let identified = dev
+        .edf
+        .get(i)
+        .copied()
+        .filter(|v| v.is_finite() && *v > 0.0)?;
+    let (m, n) = (dev.m[i], samples_behind(dev, i));
+    Some(
+        [0i8, -1, -2]
+            .into_iter()
+            .map(|alpha| crate::avar::edf::edf(dev.statistic, alpha, m, n))
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .fold(identified, f64::min),
+    )
+}
+
+/// The largest value of `term` the measured Allan variance allows at the two-sided confidence
+/// `p`: at every τ of `dev` the term's Allan variance alone may not exceed the point's upper
+/// bound (every other term only adds to σ²); the smallest of these. An interval's
+/// upper end beyond it says more than the data: a K of 4.8 °/h/√h had a 95 % interval reaching
+/// 133.7, whose Allan deviation alone at τ = 2621 s (66 °/h) is 4.5 times the measured point's
+/// 95 % upper bound (14.6 °/h). Only the τ from `min_tau_s` on count, those the Allan fit used:
+/// below, a sensor's low-pass has taken variance out, and N's bound there would fall below the
+/// truth. Not for the rate ramp, whose interval the series' test sets.
+fn allan_cap(dev: &Deviations, term: Term, p: f64, min_tau_s: f64) -> Option<f64> {
+    if term == Term::RateRamp {
+        return None;
+    }
+    let points: Vec<usize> = (0..dev.len())
+        .filter(|&i| dev.tau_s[i] >= min_tau_s * (1.0 - 1e-9))
+        .filter(|&i| dev.variance[i] > 0.0 && dev.variance[i].is_finite())
+        .collect();
+    // Each point's bound at (1 − p)/2 shared among the points (Bonferroni): the smallest of them
+    // then holds the truth at least as often as the interval's own upper end should.
+    let q = (1.0 - p) / 2.0 / points.len().max(1) as f64;
+    points
+        .into_iter()
+        .filter_map(|i| {
+            let nu = bound_edf(dev, i)?;
+            let bound = dev.variance[i] * nu / chi2_quantile(q, nu);
+            let unit = term.avar_unit(dev.tau_s[i]);
+            (unit > 0.0 && bound.is_finite()).then(|| (bound / unit).sqrt())
+        })
+        .reduce(f64::min)
+}
+
 /// The τ at which a term's Allan variance alone is checked against the measurement and the
 /// measurement's 99 % upper bound there (from the point's EDF).
 fn allan_bound(dev: &Deviations, term: Term) -> Option<(f64, f64)> {
@@ -702,22 +761,11 @@ fn allan_bound(dev: &Deviations, term: Term) -> Option<(f64, f64)> {
         Term::RateRandomWalk => nearest(dev, 3.0)?,
         _ => return None,
     };
-    let identified = dev
-        .edf
-        .get(i)
-        .copied()
-        .filter(|v| v.is_finite() && *v > 0.0)?;
     // The EDF of the identified noise type, but never more than a rate noise (white, flicker or
     // random-walk FM) would give there: at the longest τ a handful of averages can be identified
     // as phase noise (α = 1), whose EDF (154 at 4 averages of a 24-h record) made the bound so
     // tight that a right B (3.07 °/h, truth 3) was called a contradiction of its read-off.
-    let m = dev.m[i];
-    let n = samples_behind(dev, i);
-    let nu = [0i8, -1, -2]
-        .into_iter()
-        .map(|alpha| crate::avar::edf::edf(dev.statistic, alpha, m, n))
-        .filter(|v| v.is_finite() && *v > 0.0)
-        .fold(identified, f64::min);
+    let nu = bound_edf(dev, i)?;
     Some((
         dev.tau_s[i],
         dev.variance[i] * nu / chi2_quantile(0.005, nu),
@@ -844,6 +892,55 @@ mod tests {
         let c = combine(Some(&a), Some(&s), None);
         assert!(c.get(b).unwrap().hull && c.get(b).unwrap().lo == 0.0);
         assert!(matches!(c.warnings[0], FitWarning::DomainsDisagree { .. }));
+    }
+
+    /// The measured Allan variance caps an upper end: white noise (N = 0.1 at 100 Hz) read
+    /// with a K whose interval reaches 1e3 gets K's upper end cut to what the curve allows, which
+    /// still holds K = 0's neighbourhood and N's truth is never cut.
+    #[test]
+    fn the_allan_curve_caps_an_upper_end() {
+        use crate::avar::{compute, Confidence, Statistic, TauGrid};
+        let mut below = 0;
+        for seed in 0..40 {
+            let y = crate::sim::rng::Rng::new(9_100 + seed).gauss_vec(100_000);
+            let dev = compute(
+                &y,
+                100.0,
+                &TauGrid::Octave,
+                Statistic::Oadev,
+                Confidence::OneSigma,
+            )
+            .unwrap();
+            let n_cap = allan_cap(&dev, Term::RandomWalk, 0.95, 0.01).unwrap();
+            below += usize::from(n_cap < 0.1);
+            assert!(n_cap < 0.2, "seed {seed}: {n_cap}");
+            let k_cap = allan_cap(&dev, Term::RateRandomWalk, 0.95, 0.01).unwrap();
+            assert!(k_cap.is_finite() && k_cap < 1.0, "seed {seed}: {k_cap}");
+            assert!(allan_cap(&dev, Term::RateRamp, 0.95, 0.01).is_none());
+            // A combined K with a wild upper end is cut to the cap, keeping its value.
+            let mut k = est(Term::RateRandomWalk, 1e-3, 0.5);
+            k.hi = 1e3;
+            let mut a = fit(
+                Domain::Allan,
+                vec![est(Term::RandomWalk, 0.1, 0.01), k],
+                vec![],
+            );
+            a.points = vec![crate::model::FitPoint {
+                x: 0.01,
+                value: 1.0,
+                model: 1.0,
+                edf: 1.0,
+                z: 0.0,
+            }];
+            let c = combine(Some(&a), None, Some(&dev));
+            let got = c.get(Term::RateRandomWalk).unwrap();
+            assert!(
+                got.hi <= k_cap.max(got.value) && got.hi >= got.value,
+                "{got:?}"
+            );
+        }
+        // The bound holds the truth (one-sided, at least 97.5 % each): at most 2 of 40 below.
+        assert!(below <= 2, "{below} of 40 caps below N");
     }
 
     /// A neighbour whose interval reaches 0 does not pull the term to its fit: N comes from the
