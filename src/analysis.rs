@@ -115,7 +115,16 @@ pub fn analyze_channel(
     if a.bandwidth.as_ref().is_some_and(|b| !b.is_filter()) {
         span_both_fits(&mut a, Term::Quantization);
     }
+    // Where the band's edge was taken for a coarse angle quantiser, the output's grid is that
+    // quantiser's, explained by Q: no rate rounding to warn of (a 2-arcsec quantiser, three
+    // output levels, was both, its warning saying the sensor's N could not be read while N was
+    // read right).
+    let angle_grid = a
+        .bandwidth
+        .as_ref()
+        .is_some_and(|b| matches!(b.cause, crate::model::BandEdge::AngleQuantiser { .. }));
     let rounding = step
+        .filter(|_| !angle_grid)
         .and_then(|h| rounding_warning(h, rate_hz, &a.combined, a.allan_fit(), a.spectrum_fit()));
     a.combined.warnings.extend(rounding);
     let n = a.combined.get(Term::RandomWalk).map(|t| t.value);

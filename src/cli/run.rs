@@ -118,6 +118,12 @@ fn summary_line(r: &FileResult) -> String {
             q.nonfinite_policy
         ));
     }
+    if q.dropped_rows > 0 {
+        notes.push(format!(
+            "{} dropped, the samples either side joined as if contiguous",
+            count(q.dropped_rows, "row")
+        ));
+    }
     let notes = if notes.is_empty() {
         String::new()
     } else {

@@ -127,6 +127,13 @@ fn file_section(out: &mut String, r: &FileResult) {
             q.gap_policy
         ));
     }
+    if q.dropped_rows > 0 {
+        notes.push(format!(
+            "{} with non-finite samples dropped (policy drop): the samples either side are \
+             joined as if contiguous, as `--on-gap ignore` joins a gap's",
+            count(q.dropped_rows, "row")
+        ));
+    }
     for c in &q.channels {
         for v in &c.verdicts {
             notes.push(format!("{}: {}", c.name, v.describe()));

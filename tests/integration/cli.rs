@@ -291,6 +291,49 @@ fn a_400_hz_gyro_behind_a_digital_filter_is_read_right() {
     }
 }
 
+/// A gyro behind a coarse angle quantiser (Q = 2 arcsec at 200 Hz: about ten white σ per output
+/// step): the band's edge is the quantiser's, and no output-resolution warning contradicts it by
+/// saying the sensor's N cannot be read; N is read right (0.15 °/√h planted).
+#[test]
+fn a_coarse_angle_quantiser_is_not_also_rate_rounding() {
+    let dir = tempfile::tempdir().unwrap();
+    let deg = std::f64::consts::PI / 180.0;
+    let spec = serde_json::json!({ "rate_hz": 200.0, "duration_s": 1800.0, "seed": 1,
+        "channels": [{ "name": "gyro_y", "sensor": "gyro", "noise": {
+            "n": 0.15 * deg / 60.0, "b": 3.0 * deg / 3600.0, "q": 2.0 / 3600.0 * deg } }] });
+    std::fs::write(dir.path().join("spec.json"), spec.to_string()).unwrap();
+    let made = imunoise(
+        &["simulate", "--spec", "spec.json", "-o", "q.arrow"],
+        dir.path(),
+    );
+    assert_eq!(made.status.code(), Some(0), "{made:?}");
+    let out = imunoise(&["analyze", "q.arrow", "-o", "out", "--quiet"], dir.path());
+    assert_eq!(out.status.code(), Some(0), "{out:?}");
+    let doc: Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("out/report.json")).unwrap())
+            .unwrap();
+    let a = &doc["files"][0]["analysis"][0];
+    assert_eq!(
+        a["bandwidth"]["cause"]["kind"], "angle_quantiser",
+        "{}",
+        a["bandwidth"]
+    );
+    let warnings = a["combined"]["warnings"].as_array().unwrap();
+    assert!(
+        warnings.iter().all(|w| w["kind"] != "output_resolution"),
+        "{warnings:?}"
+    );
+    let n = a["combined"]["terms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["term"] == "random_walk")
+        .expect("N kept")["value"]
+        .as_f64()
+        .unwrap();
+    assert!((n / (0.15 * deg / 60.0) - 1.0).abs() < 0.05, "N {n}");
+}
+
 #[test]
 fn usage_errors_exit_2_before_reading_anything() {
     let dir = tempfile::tempdir().unwrap();
