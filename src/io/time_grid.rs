@@ -204,21 +204,24 @@ fn grid_pass(times: &[f64], rough_period: f64) -> f64 {
     };
     let mut tracker = GridTracker::anchored(rough_period, &finite);
     let mut index = 0u64;
-    let (mut n, mut sk, mut st, mut skk, mut skt) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    let mut points: Vec<(f64, f64)> = Vec::with_capacity(times.len());
     for &t in times.iter().filter(|t| t.is_finite()) {
         let (s, _) = tracker.place(t);
-        if n > 0.0 {
+        if !points.is_empty() {
             index += s;
         }
-        let (k, y) = (index as f64, t - t0);
-        n += 1.0;
-        sk += k;
-        st += y;
-        skk += k * k;
-        skt += k * y;
+        points.push((index as f64, t - t0));
     }
-    let denominator = n * skk - sk * sk;
-    let slope = (n * skt - sk * st) / denominator;
+    // The least-squares slope from compensated sums about the means: the raw sums' n·Σk² − (Σk)²
+    // and their rounding put the period 2e-11 off over the probe's 2²⁰ timestamps (exact 10-ms
+    // ticks read 99.99999999797 Hz).
+    let n = points.len() as f64;
+    let mk = compensated_sum(points.iter().map(|p| p.0)) / n;
+    let mt = compensated_sum(points.iter().map(|p| p.1)) / n;
+    let skk = compensated_sum(points.iter().map(|&(k, _)| (k - mk) * (k - mk)));
+    let skt = compensated_sum(points.iter().map(|&(k, y)| (k - mk) * (y - mt)));
+    let denominator = skk;
+    let slope = skt / skk;
     if denominator > 0.0 && slope.is_finite() && slope > 0.0 {
         slope
     } else {
@@ -226,9 +229,33 @@ fn grid_pass(times: &[f64], rough_period: f64) -> f64 {
     }
 }
 
+/// Σ `values` with Neumaier's compensation: the rounding of every addition carried along.
+fn compensated_sum(values: impl Iterator<Item = f64>) -> f64 {
+    let (mut sum, mut carry) = (0.0f64, 0.0f64);
+    for v in values {
+        let t = sum + v;
+        carry += if sum.abs() >= v.abs() {
+            (sum - t) + v
+        } else {
+            (v - t) + sum
+        };
+        sum = t;
+    }
+    sum + carry
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Exact ticks (10 ms in ns, 2²⁰ of them, as a probe reads them): the period comes back to
+    /// the last bit or two, not 2e-11 off.
+    #[test]
+    fn exact_ticks_give_the_exact_period() {
+        let times: Vec<f64> = (0..1u64 << 20).map(|k| (k * 10_000_000) as f64).collect();
+        let p = grid_period(&times, 1e7);
+        assert!((p / 1e7 - 1.0).abs() < 1e-14, "{p}");
+    }
 
     #[test]
     fn jitter_and_gaps_do_not_bias_the_period() {
