@@ -249,6 +249,28 @@ fn an_earlier_runs_folder_does_not_look_current() {
     assert!(out.join("a/imu.yaml").exists() && out.join("a/plots/g_avar.svg").exists());
 }
 
+/// `imunoise simulate --spec` of `spec`, then `analyze` of it: the first channel's analysis from
+/// report.json and its combined N.
+fn analyze_simulated(dir: &std::path::Path, spec: &Value) -> (Value, f64) {
+    std::fs::write(dir.join("spec.json"), spec.to_string()).unwrap();
+    let made = imunoise(&["simulate", "--spec", "spec.json", "-o", "g.arrow"], dir);
+    assert_eq!(made.status.code(), Some(0), "{made:?}");
+    let out = imunoise(&["analyze", "g.arrow", "-o", "out", "--quiet"], dir);
+    assert_eq!(out.status.code(), Some(0), "{out:?}");
+    let doc: Value =
+        serde_json::from_slice(&std::fs::read(dir.join("out/report.json")).unwrap()).unwrap();
+    let a = doc["files"][0]["analysis"][0].clone();
+    let n = a["combined"]["terms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["term"] == "random_walk")
+        .expect("N kept")["value"]
+        .as_f64()
+        .unwrap();
+    (a, n)
+}
+
 /// A 400-Hz gyro behind a digital low-pass (float samples, no quantisation): the top band of
 /// its spectrum ends in the filter's zero at Nyquist, 10⁻¹¹ of the floor, which once drove every
 /// spectrum model to zero, hid the filter and left the Allan fit alone to read B 80× the truth
@@ -257,36 +279,15 @@ fn an_earlier_runs_folder_does_not_look_current() {
 fn a_400_hz_gyro_behind_a_digital_filter_is_read_right() {
     let dir = tempfile::tempdir().unwrap();
     for order in [2, 4] {
-        let spec = format!(
-            r#"{{"rate_hz": 400.0, "duration_s": 300.0, "seed": 3, "channels": [{{"name": "gyro_x",
-            "sensor": "gyro", "noise": {{"n": 8.73e-5, "b": 1.45e-5}},
-            "lowpass": {{"corner_hz": 100.0, "order": {order}}}}}]}}"#
-        );
-        std::fs::write(dir.path().join("spec.json"), spec).unwrap();
-        let made = imunoise(
-            &["simulate", "--spec", "spec.json", "-o", "g.arrow"],
-            dir.path(),
-        );
-        assert_eq!(made.status.code(), Some(0), "{made:?}");
-        let out = imunoise(&["analyze", "g.arrow", "-o", "out", "--quiet"], dir.path());
-        assert_eq!(out.status.code(), Some(0), "{out:?}");
-        let doc: Value =
-            serde_json::from_slice(&std::fs::read(dir.path().join("out/report.json")).unwrap())
-                .unwrap();
-        let a = &doc["files"][0]["analysis"][0];
+        let spec = serde_json::json!({ "rate_hz": 400.0, "duration_s": 300.0, "seed": 3,
+            "channels": [{ "name": "gyro_x", "sensor": "gyro", "noise": { "n": 8.73e-5, "b": 1.45e-5 },
+                "lowpass": { "corner_hz": 100.0, "order": order } }] });
+        let (a, n) = analyze_simulated(dir.path(), &spec);
         assert_eq!(a["spectrum"]["status"], "ok", "{}", a["spectrum"]);
         let lp = &a["bandwidth"]["lowpass"];
         assert_eq!(lp["order"], order, "{lp}");
         let corner = lp["corner_hz"].as_f64().unwrap();
         assert!((corner / 100.0 - 1.0).abs() < 0.05, "{lp}");
-        let n = a["combined"]["terms"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|t| t["term"] == "random_walk")
-            .expect("N kept")["value"]
-            .as_f64()
-            .unwrap();
         assert!((n / 8.73e-5 - 1.0).abs() < 0.05, "N {n}");
     }
 }
@@ -301,18 +302,7 @@ fn a_coarse_angle_quantiser_is_not_also_rate_rounding() {
     let spec = serde_json::json!({ "rate_hz": 200.0, "duration_s": 1800.0, "seed": 1,
         "channels": [{ "name": "gyro_y", "sensor": "gyro", "noise": {
             "n": 0.15 * deg / 60.0, "b": 3.0 * deg / 3600.0, "q": 2.0 / 3600.0 * deg } }] });
-    std::fs::write(dir.path().join("spec.json"), spec.to_string()).unwrap();
-    let made = imunoise(
-        &["simulate", "--spec", "spec.json", "-o", "q.arrow"],
-        dir.path(),
-    );
-    assert_eq!(made.status.code(), Some(0), "{made:?}");
-    let out = imunoise(&["analyze", "q.arrow", "-o", "out", "--quiet"], dir.path());
-    assert_eq!(out.status.code(), Some(0), "{out:?}");
-    let doc: Value =
-        serde_json::from_slice(&std::fs::read(dir.path().join("out/report.json")).unwrap())
-            .unwrap();
-    let a = &doc["files"][0]["analysis"][0];
+    let (a, n) = analyze_simulated(dir.path(), &spec);
     assert_eq!(
         a["bandwidth"]["cause"]["kind"], "angle_quantiser",
         "{}",
@@ -323,14 +313,6 @@ fn a_coarse_angle_quantiser_is_not_also_rate_rounding() {
         warnings.iter().all(|w| w["kind"] != "output_resolution"),
         "{warnings:?}"
     );
-    let n = a["combined"]["terms"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|t| t["term"] == "random_walk")
-        .expect("N kept")["value"]
-        .as_f64()
-        .unwrap();
     assert!((n / (0.15 * deg / 60.0) - 1.0).abs() < 0.05, "N {n}");
 }
 
