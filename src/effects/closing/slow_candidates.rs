@@ -88,13 +88,13 @@ pub(super) fn refined<T>(
 /// (p < [`REFINE_P`]) is repeated once under the Allan fit of the series with the first estimate
 /// removed (feasible GLS). Added only below the family-wise [`DETECTION_P`]
 /// ([`Candidate::barred`]); above it they are listed as considered.
-pub(super) fn slow_candidates(
+pub(super) fn slow_candidates<'a>(
     state: &State,
     fs: f64,
-    aux: &[AuxSeries<'_>],
+    aux: &[AuxSeries<'a>],
     cfg: &LoopConfig,
     p: f64,
-) -> Vec<Candidate> {
+) -> Vec<Candidate<'a>> {
     let mut out = Vec::new();
     let y = &state.y;
     let Some(model) = state.allan.as_ref().or(state.spectrum.as_ref()) else {
@@ -139,7 +139,7 @@ pub(super) fn slow_candidates(
         if c.p_value < DETECTION_P {
             detected.push((a.name, a.samples, c.clone()));
         }
-        let (fit, samples) = (c.clone(), a.samples.to_vec());
+        let (fit, samples) = (c.clone(), a.samples);
         out.push(Candidate {
             veto: None,
             delta_bic: c.delta_bic,
@@ -152,7 +152,7 @@ pub(super) fn slow_candidates(
                 fit: c,
             },
             apply: Apply::Series(Box::new(move |y: &mut Vec<f64>| {
-                remove_coupling(y, &samples, &fit)
+                remove_coupling(y, samples, &fit)
             })),
         });
     }
@@ -321,7 +321,7 @@ pub(super) fn slow_candidate<T: SlowEffect>(
     cfg: &LoopConfig,
     first: Option<T>,
     estimate: &dyn Fn(Density<'_>) -> Option<T>,
-) -> Option<Candidate> {
+) -> Option<Candidate<'static>> {
     let first = first?;
     let e = if first.p_value() < REFINE_P {
         refined(

@@ -153,7 +153,7 @@ pub(super) fn resonance_candidate(
     fs: f64,
     cfg: &LoopConfig,
     p: f64,
-) -> Option<Candidate> {
+) -> Option<Candidate<'static>> {
     let nyquist = fs / 2.0;
     let q0 = (e.freq_hz / e.width_hz.max(state.psd.bin_width_hz())).clamp(0.5, 1e4);
     let profile_opts = profile_options(state, cfg);
@@ -295,7 +295,7 @@ pub(super) fn gauss_markov_candidate(
     fs: f64,
     cfg: &LoopConfig,
     p: f64,
-) -> Option<Candidate> {
+) -> Option<Candidate<'static>> {
     let duration = state.y.len() as f64 / fs;
     let (lo, hi) = (10.0 / fs, duration / 10.0);
     if hi <= lo {
