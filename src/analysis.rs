@@ -115,6 +115,7 @@ pub fn analyze_channel(
     if a.bandwidth.as_ref().is_some_and(|b| !b.is_filter()) {
         span_both_fits(&mut a, Term::Quantization);
     }
+    grid_quantisation(&mut a, rate_hz);
     // Where the band's edge was taken for a coarse angle quantiser, the output's grid is that
     // quantiser's, explained by Q: no rate rounding to warn of (a 2-arcsec quantiser, three
     // output levels, was both, its warning saying the sensor's N could not be read while N was
@@ -134,6 +135,32 @@ pub fn analyze_channel(
         .and_then(|r| r.heavy_tail_warning(n, samples, rate_hz));
     a.combined.warnings.extend(tail);
     a
+}
+
+/// Where the band's edge is a coarse angle quantiser's, Q's combined value is the grid's own:
+/// an angle quantiser of step h (rad) has Q = h/√12 (IEEE 952), with h the output's rate step over
+/// the sample rate; the interval is widened to hold it, the fits' readings stay as evidence. On a
+/// 2-arcsec quantiser (ten white σ a step) the spectrum's Q read 4.43 arcsec, its own interval
+/// excluding the truth, and became the combined value; the grid gives 2.00.
+fn grid_quantisation(a: &mut ChannelAnalysis, rate_hz: f64) {
+    let Some(crate::model::BandEdge::AngleQuantiser { step, .. }) =
+        a.bandwidth.as_ref().map(|b| b.cause)
+    else {
+        return;
+    };
+    let q = step / (12f64.sqrt() * rate_hz);
+    if let Some(t) = a
+        .combined
+        .terms
+        .iter_mut()
+        .find(|t| t.term == Term::Quantization)
+    {
+        if q.is_finite() && q > 0.0 {
+            t.value = q;
+            t.lo = t.lo.min(q);
+            t.hi = t.hi.max(q);
+        }
+    }
 }
 
 /// `term`'s combined interval widened to the hull of both fits' intervals: for Q where the band's

@@ -294,7 +294,7 @@ fn a_400_hz_gyro_behind_a_digital_filter_is_read_right() {
 
 /// A gyro behind a coarse angle quantiser (Q = 2 arcsec at 200 Hz: about ten white σ per output
 /// step): the band's edge is the quantiser's, and no output-resolution warning contradicts it by
-/// saying the sensor's N cannot be read; N is read right (0.15 °/√h planted).
+/// saying the sensor's N cannot be read; N is read right (0.15 °/√h planted), and Q is the grid's.
 #[test]
 fn a_coarse_angle_quantiser_is_not_also_rate_rounding() {
     let dir = tempfile::tempdir().unwrap();
@@ -314,6 +314,16 @@ fn a_coarse_angle_quantiser_is_not_also_rate_rounding() {
         "{warnings:?}"
     );
     assert!((n / (0.15 * deg / 60.0) - 1.0).abs() < 0.05, "N {n}");
+    // Q is the grid's own: 2 arcsec, not the spectrum's 2.2× reading.
+    let q = a["combined"]["terms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["term"] == "quantization")
+        .expect("Q kept");
+    let value = q["value"].as_f64().unwrap() / (deg / 3600.0);
+    assert!((value / 2.0 - 1.0).abs() < 0.01, "Q {value} arcsec: {q}");
+    assert!(q["lo"].as_f64() <= q["value"].as_f64() && q["value"].as_f64() <= q["hi"].as_f64());
 }
 
 #[test]
