@@ -17,8 +17,8 @@ use crate::effects::ramp::{widen_ramp, RampAction, RampDecision};
 use crate::effects::{close_loop_from_base, AuxSeries, LoopConfig, LoopReport};
 use crate::estimate::{ChannelDeviations, ChannelPsd};
 use crate::model::{
-    combine, compare, rounding_warning, Bandwidth, Combined, FitError, FitOptions, NoiseFit,
-    Sensor, Term, TermComparison,
+    combine, compare, rounding_warning, BandEdge, Bandwidth, Combined, FitError, FitOptions,
+    NoiseFit, Sensor, Term, TermComparison,
 };
 
 /// One channel's fits.
@@ -112,20 +112,20 @@ pub fn analyze_channel(
 ) -> ChannelAnalysis {
     let (step, rate_hz, samples) = (input.output_step, input.rate_hz, input.samples.len());
     let mut a = fit_and_close(input, aux, opts, loop_cfg);
-    if a.bandwidth.as_ref().is_some_and(|b| !b.is_filter()) {
+    // Where the band's edge was taken for a coarse angle quantiser, Q is the grid's, and the
+    // output's grid is that quantiser's, explained by Q: no rate rounding to warn of (a 2-arcsec
+    // quantiser, three output levels, was both, its warning saying the sensor's N could not be
+    // read while N was read right).
+    let angle_grid = a.bandwidth.as_ref().and_then(|b| match b.cause {
+        BandEdge::AngleQuantiser { step, .. } => Some(step),
+        BandEdge::LowPass => None,
+    });
+    if let Some(h) = angle_grid {
         span_both_fits(&mut a, Term::Quantization);
+        grid_quantisation(&mut a, h, rate_hz);
     }
-    grid_quantisation(&mut a, rate_hz);
-    // Where the band's edge was taken for a coarse angle quantiser, the output's grid is that
-    // quantiser's, explained by Q: no rate rounding to warn of (a 2-arcsec quantiser, three
-    // output levels, was both, its warning saying the sensor's N could not be read while N was
-    // read right).
-    let angle_grid = a
-        .bandwidth
-        .as_ref()
-        .is_some_and(|b| matches!(b.cause, crate::model::BandEdge::AngleQuantiser { .. }));
     let rounding = step
-        .filter(|_| !angle_grid)
+        .filter(|_| angle_grid.is_none())
         .and_then(|h| rounding_warning(h, rate_hz, &a.combined, a.allan_fit(), a.spectrum_fit()));
     a.combined.warnings.extend(rounding);
     let n = a.combined.get(Term::RandomWalk).map(|t| t.value);
@@ -137,17 +137,13 @@ pub fn analyze_channel(
     a
 }
 
-/// Where the band's edge is a coarse angle quantiser's, Q's combined value is the grid's own:
-/// an angle quantiser of step h (rad) has Q = h/√12 (IEEE 952), with h the output's rate step over
-/// the sample rate; the interval is widened to hold it, the fits' readings stay as evidence. On a
-/// 2-arcsec quantiser (ten white σ a step) the spectrum's Q read 4.43 arcsec, its own interval
-/// excluding the truth, and became the combined value; the grid gives 2.00.
-fn grid_quantisation(a: &mut ChannelAnalysis, rate_hz: f64) {
-    let Some(crate::model::BandEdge::AngleQuantiser { step, .. }) =
-        a.bandwidth.as_ref().map(|b| b.cause)
-    else {
-        return;
-    };
+/// Q's combined value where the band's edge is a coarse angle quantiser's of output step `step`
+/// (SI rate units): the grid's own. An angle quantiser of step h (rad) has Q = h/√12 (IEEE 952),
+/// h the output's rate step over the sample rate; the interval is widened to hold it, the fits'
+/// readings stay as evidence. On a 2-arcsec quantiser (ten white σ a step) the spectrum's Q read
+/// 4.43 arcsec, its own interval excluding the truth, and became the combined value; the grid
+/// gives 2.00.
+fn grid_quantisation(a: &mut ChannelAnalysis, step: f64, rate_hz: f64) {
     let q = step / (12f64.sqrt() * rate_hz);
     if let Some(t) = a
         .combined

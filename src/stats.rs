@@ -24,6 +24,27 @@ pub fn lane_sum(x: &[f64]) -> f64 {
     acc.iter().sum::<f64>() + rest.iter().sum::<f64>()
 }
 
+/// Compensated (Neumaier) sum, in iteration order: the rounding of every addition carried along.
+pub fn neumaier(values: impl Iterator<Item = f64>) -> f64 {
+    let (mut sum, mut comp) = (0.0f64, 0.0f64);
+    for v in values {
+        let t = sum + v;
+        comp += if sum.abs() >= v.abs() {
+            (sum - t) + v
+        } else {
+            (v - t) + sum
+        };
+        sum = t;
+    }
+    sum + comp
+}
+
+/// The distance from |x| to the next larger 64-bit float: the resolution of a value that size.
+pub fn float_spacing(x: f64) -> f64 {
+    let a = x.abs();
+    f64::from_bits(a.to_bits() + 1) - a
+}
+
 /// P(Z > z) for a standard normal Z.
 pub fn norm_sf(z: f64) -> f64 {
     0.5 * erfc(z / SQRT_2)
@@ -229,6 +250,19 @@ fn wilson_hilferty(p: f64, nu: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn neumaier_keeps_small_terms() {
+        let v = [1e16, 1.0, -1e16, 1.0];
+        assert_eq!(neumaier(v.into_iter()), 2.0);
+    }
+
+    #[test]
+    fn float_spacing_is_one_unit_in_the_last_place() {
+        assert_eq!(float_spacing(1.0), f64::EPSILON);
+        assert_eq!(float_spacing(-1.7e9), 2f64.powi(-22));
+        assert_eq!(float_spacing(0.0), f64::from_bits(1));
+    }
 
     /// (ν, z, P, Q) at x = ν + z·√(2ν), in 40-digit arithmetic (`scripts/make_chi2_fixtures.py`).
     const TAILS: [(f64, f64, f64, f64); 14] = [

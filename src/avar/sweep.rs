@@ -207,20 +207,7 @@ fn third_block(s: &[f64], j0: usize, len: usize, m: usize) -> f64 {
     )
 }
 
-/// Compensated (Neumaier) sum, in iteration order.
-pub(crate) fn neumaier(values: impl Iterator<Item = f64>) -> f64 {
-    let (mut sum, mut comp) = (0.0f64, 0.0f64);
-    for v in values {
-        let t = sum + v;
-        comp += if sum.abs() >= v.abs() {
-            (sum - t) + v
-        } else {
-            (v - t) + sum
-        };
-        sum = t;
-    }
-    sum + comp
-}
+pub(crate) use crate::stats::neumaier;
 
 #[cfg(test)]
 mod tests {
@@ -263,11 +250,5 @@ mod tests {
                 assert!((g - want).abs() <= 1e-11 * want, "m={m} {g} {want}");
             }
         }
-    }
-
-    #[test]
-    fn neumaier_keeps_small_terms() {
-        let v = [1e16, 1.0, -1e16, 1.0];
-        assert_eq!(neumaier(v.into_iter()), 2.0);
     }
 }

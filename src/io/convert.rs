@@ -88,7 +88,7 @@ impl TimeDecoder {
                     let a = largest as f32;
                     (f32::from_bits(a.to_bits() + 1) - a) as f64
                 } else {
-                    crate::quality::float_spacing(largest)
+                    crate::stats::float_spacing(largest)
                 };
                 self.resolution_s = self.resolution_s.max(spacing * seconds_per_unit.abs());
                 if let Some(&first) = out[start..].iter().find(|v| v.is_finite()) {

@@ -216,32 +216,16 @@ fn grid_pass(times: &[f64], rough_period: f64) -> f64 {
     // and their rounding put the period 2e-11 off over the probe's 2²⁰ timestamps (exact 10-ms
     // ticks read 99.99999999797 Hz).
     let n = points.len() as f64;
-    let mk = compensated_sum(points.iter().map(|p| p.0)) / n;
-    let mt = compensated_sum(points.iter().map(|p| p.1)) / n;
-    let skk = compensated_sum(points.iter().map(|&(k, _)| (k - mk) * (k - mk)));
-    let skt = compensated_sum(points.iter().map(|&(k, y)| (k - mk) * (y - mt)));
-    let denominator = skk;
+    let mk = crate::stats::neumaier(points.iter().map(|p| p.0)) / n;
+    let mt = crate::stats::neumaier(points.iter().map(|p| p.1)) / n;
+    let skk = crate::stats::neumaier(points.iter().map(|&(k, _)| (k - mk) * (k - mk)));
+    let skt = crate::stats::neumaier(points.iter().map(|&(k, y)| (k - mk) * (y - mt)));
     let slope = skt / skk;
-    if denominator > 0.0 && slope.is_finite() && slope > 0.0 {
+    if skk > 0.0 && slope.is_finite() && slope > 0.0 {
         slope
     } else {
         rough_period
     }
-}
-
-/// Σ `values` with Neumaier's compensation: the rounding of every addition carried along.
-fn compensated_sum(values: impl Iterator<Item = f64>) -> f64 {
-    let (mut sum, mut carry) = (0.0f64, 0.0f64);
-    for v in values {
-        let t = sum + v;
-        carry += if sum.abs() >= v.abs() {
-            (sum - t) + v
-        } else {
-            (v - t) + sum
-        };
-        sum = t;
-    }
-    sum + carry
 }
 
 #[cfg(test)]

@@ -525,9 +525,9 @@ pub fn combine(
     // the model anywhere, and nothing is capped.
     let fitted_from = allan_fit.and_then(|f| f.points.iter().map(|x| x.x).reduce(f64::min));
     if let (Some(dev), Some(min_tau)) = (dev, fitted_from) {
-        let p = confidence(allan_fit, spectrum_fit);
+        let bounds = allan_bounds(dev, confidence(allan_fit, spectrum_fit), min_tau);
         for t in &mut terms {
-            if let Some(cap) = allan_cap(dev, t.term, p, min_tau) {
+            if let Some(cap) = allan_cap(&bounds, t.term) {
                 t.hi = t.hi.min(cap).max(t.value);
             }
         }
@@ -720,32 +720,43 @@ fn bound_edf(dev: &Deviations, i: usize) -> Option<f64> {
     )
 }
 
-/// The largest value of `term` the measured Allan variance allows at the two-sided confidence
-/// `p`: at every τ of `dev` the term's Allan variance alone may not exceed the point's upper
-/// bound (every other term only adds to σ²); the smallest of these. An interval's
-/// upper end beyond it says more than the data: a K of 4.8 °/h/√h had a 95 % interval reaching
-/// 133.7, whose Allan deviation alone at τ = 2621 s (66 °/h) is 4.5 times the measured point's
-/// 95 % upper bound (14.6 °/h). Only the τ from `min_tau_s` on count, those the Allan fit used:
-/// below, a sensor's low-pass has taken variance out, and N's bound there would fall below the
-/// truth. Not for the rate ramp, whose interval the series' test sets.
-fn allan_cap(dev: &Deviations, term: Term, p: f64, min_tau_s: f64) -> Option<f64> {
-    if term == Term::RateRamp {
-        return None;
-    }
+/// The measured Allan variance's upper bounds, (τ, bound), at the two-sided confidence `p`: at
+/// every τ of `dev` from `min_tau_s` on (those the Allan fit used: below, a sensor's low-pass
+/// has taken variance out, and N's bound there would fall below the truth), the point's upper
+/// bound with (1 − p)/2 shared among the points (Bonferroni), so that the smallest of the
+/// bounds a term takes from them ([`allan_cap`]) holds the truth at least as often as an
+/// interval's upper end should.
+fn allan_bounds(dev: &Deviations, p: f64, min_tau_s: f64) -> Vec<(f64, f64)> {
     let points: Vec<usize> = (0..dev.len())
         .filter(|&i| dev.tau_s[i] >= min_tau_s * (1.0 - 1e-9))
         .filter(|&i| dev.variance[i] > 0.0 && dev.variance[i].is_finite())
         .collect();
-    // Each point's bound at (1 − p)/2 shared among the points (Bonferroni): the smallest of them
-    // then holds the truth at least as often as the interval's own upper end should.
     let q = (1.0 - p) / 2.0 / points.len().max(1) as f64;
     points
         .into_iter()
         .filter_map(|i| {
             let nu = bound_edf(dev, i)?;
             let bound = dev.variance[i] * nu / chi2_quantile(q, nu);
-            let unit = term.avar_unit(dev.tau_s[i]);
-            (unit > 0.0 && bound.is_finite()).then(|| (bound / unit).sqrt())
+            bound.is_finite().then_some((dev.tau_s[i], bound))
+        })
+        .collect()
+}
+
+/// The largest value of `term` the measured Allan variance allows: its Allan variance alone
+/// within every one of `bounds` ([`allan_bounds`]; every other term only adds to σ²), the
+/// smallest of these. An interval's upper end beyond it says more than the data: a K of
+/// 4.8 °/h/√h had a 95 % interval reaching 133.7, whose Allan deviation alone at τ = 2621 s
+/// (66 °/h) is 4.5 times the measured point's 95 % upper bound (14.6 °/h). Not for the rate ramp,
+/// whose interval the series' test sets.
+fn allan_cap(bounds: &[(f64, f64)], term: Term) -> Option<f64> {
+    if term == Term::RateRamp {
+        return None;
+    }
+    bounds
+        .iter()
+        .filter_map(|&(tau, bound)| {
+            let unit = term.avar_unit(tau);
+            (unit > 0.0).then(|| (bound / unit).sqrt())
         })
         .reduce(f64::min)
 }
@@ -911,12 +922,13 @@ mod tests {
                 Confidence::OneSigma,
             )
             .unwrap();
-            let n_cap = allan_cap(&dev, Term::RandomWalk, 0.95, 0.01).unwrap();
+            let bounds = allan_bounds(&dev, 0.95, 0.01);
+            let n_cap = allan_cap(&bounds, Term::RandomWalk).unwrap();
             below += usize::from(n_cap < 0.1);
             assert!(n_cap < 0.2, "seed {seed}: {n_cap}");
-            let k_cap = allan_cap(&dev, Term::RateRandomWalk, 0.95, 0.01).unwrap();
+            let k_cap = allan_cap(&bounds, Term::RateRandomWalk).unwrap();
             assert!(k_cap.is_finite() && k_cap < 1.0, "seed {seed}: {k_cap}");
-            assert!(allan_cap(&dev, Term::RateRamp, 0.95, 0.01).is_none());
+            assert!(allan_cap(&bounds, Term::RateRamp).is_none());
             // A combined K with a wild upper end is cut to the cap, keeping its value.
             let mut k = est(Term::RateRandomWalk, 1e-3, 0.5);
             k.hi = 1e3;

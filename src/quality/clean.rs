@@ -8,8 +8,8 @@ use std::path::PathBuf;
 
 use super::stats::SliceScan;
 use super::{
-    float_spacing, verdicts, ChannelQuality, ChannelStats, Gap, GapPolicy, NonFinitePolicy,
-    QualityOptions, QualityReport, TimeJitter, MAX_LISTED_GAPS,
+    verdicts, ChannelQuality, ChannelStats, Gap, GapPolicy, NonFinitePolicy, QualityOptions,
+    QualityReport, TimeJitter, MAX_LISTED_GAPS,
 };
 use crate::io::time_grid::GridTracker;
 use crate::io::ChannelSpec;
@@ -72,8 +72,6 @@ pub struct Cleaner {
     period_s: f64,
     options: QualityOptions,
     previous_time: Option<f64>,
-    /// The first timestamp (with the last, the largest in magnitude: they increase).
-    first_time: f64,
     /// The time column's resolution as stored ([`crate::io::Block::time_resolution_s`]).
     stored_time_resolution_s: f64,
     /// The grid of sample instants the timestamps jitter around, at the period the time column
@@ -118,7 +116,6 @@ impl Cleaner {
             period_s: 1.0 / recording.rate_hz,
             options,
             previous_time: None,
-            first_time: 0.0,
             stored_time_resolution_s: 0.0,
             grid: GridTracker::new(grid_period_s),
             grid_period_s,
@@ -189,7 +186,7 @@ impl Cleaner {
             }
         }
         let chunk = self.take_ready();
-        let report = QualityReport {
+        let mut report = QualityReport {
             rows_read: self.rows_read,
             samples_out: self.samples_out,
             duration_s: self.samples_out as f64 * self.period_s,
@@ -202,12 +199,13 @@ impl Cleaner {
             dropped_rows: self.dropped,
             time_jitter: (self.jitter_count > 0).then(|| {
                 let rms_s = (self.jitter_sq / self.jitter_count as f64).sqrt();
+                // The times count from the first sample, so the last is the largest.
                 let last = self.previous_time.unwrap_or(0.0);
                 TimeJitter {
                     rms_s,
                     max_s: self.jitter_max,
                     gaps_ambiguous: self.jitter_max > JITTER_AMBIGUOUS_PERIODS * self.grid_period_s,
-                    resolution_s: float_spacing(self.first_time.abs().max(last.abs()))
+                    resolution_s: crate::stats::float_spacing(last)
                         .max(self.stored_time_resolution_s),
                 }
             }),
@@ -225,7 +223,6 @@ impl Cleaner {
                 })
                 .collect(),
         };
-        let mut report = report;
         let accel: Vec<usize> = (0..self.specs.len())
             .filter(|&c| self.specs[c].kind == crate::units::Kind::Accel)
             .collect();
@@ -249,7 +246,6 @@ impl Cleaner {
             if !t.is_finite() {
                 return Err(self.time_error(row, f64::NAN, t));
             }
-            self.first_time = t;
             self.grid.place(t);
             return Ok(None);
         };

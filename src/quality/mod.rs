@@ -171,12 +171,6 @@ impl TimeJitter {
     }
 }
 
-/// The distance from |x| to the next larger 64-bit float.
-pub fn float_spacing(x: f64) -> f64 {
-    let a = x.abs();
-    f64::from_bits(a.to_bits() + 1) - a
-}
-
 impl QualityReport {
     /// Whether a channel can be analysed at all (see [`ChannelVerdict::analysable`]).
     pub fn analysable(&self, channel: &str) -> bool {

@@ -51,15 +51,14 @@ fn describe(v: Option<(f64, bool, &'static str)>, sensor: Sensor, term: Term) ->
     }
 }
 
+/// How every `imu.yaml` this program writes begins (an earlier run's folder is recognised by it,
+/// [`super::stale`]).
+pub const KALIBR_HEADER: &str = "# Kalibr IMU noise model written by imunoise";
+
 /// The file's text for the channels of one recording.
 pub fn imu_yaml(source: &str, rate_hz: f64, topic: &str, analysis: &[ChannelAnalysis]) -> String {
     let mut out = String::new();
-    let _ = writeln!(
-        out,
-        "{} {}",
-        super::KALIBR_HEADER,
-        env!("CARGO_PKG_VERSION")
-    );
+    let _ = writeln!(out, "{} {}", KALIBR_HEADER, env!("CARGO_PKG_VERSION"));
     let _ = writeln!(out, "# source: {source}");
     let _ = writeln!(out, "#");
     let _ = writeln!(

@@ -29,7 +29,7 @@ pub use info::info_text;
 pub use json_layout::write_json as write_json_layout;
 pub use kalibr::imu_yaml;
 pub use model::{analysis_json, coefficients_table, units_of};
-pub use stale::{prune_figures, retire_stale_folders, EARLIER_RUNS, KALIBR_HEADER};
+pub use stale::{prune_figures, retire_stale_folders, EARLIER_RUNS};
 pub use summary::{effect_line, ramp_sentence, summary_markdown, warning_line, EffectUnits};
 pub use table::{Column, Table};
 

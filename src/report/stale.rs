@@ -19,9 +19,7 @@ use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 use super::atomic::OutputError;
-
-/// How every `imu.yaml` this program writes begins.
-pub const KALIBR_HEADER: &str = "# Kalibr IMU noise model written by imunoise";
+use super::kalibr::KALIBR_HEADER;
 
 /// Where per-recording folders of earlier runs go.
 pub const EARLIER_RUNS: &str = "earlier-runs";
