@@ -347,7 +347,13 @@ pub fn open_batches(
     projection: &[usize],
     batch_rows: usize,
 ) -> Result<Batches, InputError> {
-    let file = open_file(path)?;
+    let mut file = open_file(path)?;
+    if format == Format::Csv {
+        csv::rewind(&mut file).map_err(|e| InputError::Unreadable {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+    }
     let csv =
         (format == Format::Csv).then(|| csv::Decode::new(path, schema, projection, batch_rows));
     let projection = projection.to_vec();

@@ -766,6 +766,19 @@ fn malformed_csv_records_name_row_and_line() {
     let r = io::open(&path, &OpenOptions::default()).unwrap();
     assert_eq!(r.rate_hz, 50.0);
     assert_eq!(r.time.as_ref().map(|t| t.name.as_str()), Some("time"));
+    // ... and before a `#` preamble, which is still a comment that gives the rate.
+    let mut bytes = "\u{feff}# sample_rate_hz: 40\ng [rad/s]\n"
+        .as_bytes()
+        .to_vec();
+    for i in 0..200 {
+        bytes.extend_from_slice(format!("{}\n", (i % 7) as f64).as_bytes());
+    }
+    std::fs::write(&path, &bytes).unwrap();
+    let r = io::open(&path, &OpenOptions::default()).unwrap();
+    assert_eq!(r.rate_hz, 40.0);
+    let (read, _) = read_all(&path, &Inputs::default()).unwrap();
+    assert_eq!(read[0].len(), 200);
+    assert_eq!(read[0][8], 1.0);
 
     // Raw counts in a CSV: the header says one count's worth, `[0.01 deg/s]`, and the values
     // arrive in rad/s; `--unit` says the same where the header cannot.

@@ -82,8 +82,9 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
         path: path.to_path_buf(),
         message: e.to_string(),
     };
+    rewind(file).map_err(io_error)?;
     let metadata = preamble(path, BufReader::new(&mut *file))?;
-    file.seek(SeekFrom::Start(0)).map_err(io_error)?;
+    rewind(file).map_err(io_error)?;
 
     let mut scanner = Scanner::new(BufReader::new(&mut *file));
     let Some(header) = scanner.next_record().map_err(io_error)? else {
@@ -97,9 +98,6 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
     let mut names = Vec::with_capacity(header.fields.len());
     for (i, bytes) in header.fields.iter().enumerate() {
         match std::str::from_utf8(bytes) {
-            // A byte-order mark (spreadsheets write one) is no part of the first name: kept, it
-            // hid a column called `time` and the file had "no sample rate".
-            Ok(text) if i == 0 => names.push(text.trim_start_matches('\u{feff}').to_string()),
             Ok(text) => names.push(text.to_string()),
             Err(_) => {
                 return Err(malformed(
@@ -162,13 +160,13 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
     drop(scanner);
 
     // arrow-csv's inference, for the types beyond numbers and text (timestamps, dates, booleans).
-    file.seek(SeekFrom::Start(0)).map_err(io_error)?;
+    rewind(file).map_err(io_error)?;
     let (inferred, _) = arrow_csv::reader::Format::default()
         .with_header(true)
         .with_comment(COMMENT)
         .infer_schema(BufReader::new(&mut *file), Some(INFER_ROWS))
         .map_err(|e| malformed(path, None, None, super::plain(&e.to_string())))?;
-    file.seek(SeekFrom::Start(0)).map_err(io_error)?;
+    rewind(file).map_err(io_error)?;
     if inferred.fields().len() != names.len() {
         return Err(malformed(
             path,
@@ -226,6 +224,36 @@ impl ColumnStats {
         let seen = self.numbers + self.texts;
         self.numbers > 0 && (has_unit || self.numbers as f64 >= NUMERIC_SHARE * seen as f64)
     }
+}
+
+/// UTF-8's byte-order mark, which spreadsheets write at the start of a CSV file.
+const BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// Moves `file` to its first byte after a byte-order mark, if it starts with one. Every reader of
+/// a CSV file starts there: behind a mark, a `#` preamble line was not a comment (the file's
+/// sample rate was lost and the line read as a record), and the first header name carried it.
+/// The mark holds no line break, so line numbers stay the file's own.
+pub fn rewind(file: &mut File) -> std::io::Result<()> {
+    use std::io::Read;
+    file.seek(SeekFrom::Start(0))?;
+    let mut head = [0u8; 3];
+    let mut got = 0;
+    while got < head.len() {
+        match file.read(&mut head[got..])? {
+            0 => break,
+            n => got += n,
+        }
+    }
+    let start = if head[..got] == *BOM { BOM.len() } else { 0 };
+    file.seek(SeekFrom::Start(start as u64))?;
+    Ok(())
+}
+
+/// `path` opened at its first byte after a byte-order mark ([`rewind`]).
+pub fn open(path: &Path) -> std::io::Result<File> {
+    let mut file = File::open(path)?;
+    rewind(&mut file)?;
+    Ok(file)
 }
 
 /// The schema metadata that comment lines before the header give (`# sample_rate_hz: 200`).
@@ -434,7 +462,7 @@ impl Decode {
 
     fn structural_error(&self, first_row: u64, end_row: u64) -> Option<InputError> {
         let names = self.names();
-        let mut scanner = Scanner::new(BufReader::new(File::open(&self.path).ok()?));
+        let mut scanner = Scanner::new(BufReader::new(open(&self.path).ok()?));
         scanner.next_record().ok()??;
         let mut row = 0u64;
         while row < end_row {
@@ -461,7 +489,7 @@ impl Decode {
             .with_bounds(usize::try_from(rows.0).ok()?, usize::try_from(rows.1).ok()?)
             .with_batch_size(batch_rows)
             .with_projection(projection)
-            .build(File::open(&self.path).ok()?)
+            .build(open(&self.path).ok()?)
             .ok()
     }
 
@@ -506,7 +534,7 @@ impl Decode {
 
 /// The record of a data row (0-based, the header is not a row).
 fn record_of_row(path: &Path, row: u64) -> Option<RawRecord> {
-    let mut scanner = Scanner::new(BufReader::new(File::open(path).ok()?));
+    let mut scanner = Scanner::new(BufReader::new(open(path).ok()?));
     scanner.next_record().ok()??;
     for _ in 0..row {
         scanner.next_record().ok()??;
