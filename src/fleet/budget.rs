@@ -12,9 +12,9 @@
 //! corrected copy of the channel). Measured on this project's 2-core machine (`/usr/bin/time`,
 //! peak RSS, f32 Arrow files) against the model: 1 h × 200 Hz × 6 channels 151–155 MB (model
 //! 164 MB), 2 h × 200 Hz × 3 channels 162–171 MB (210 MB), 13.5 h × 207 Hz × 3 channels
-//! 510–534 MB (970 MB), 24 h × 400 Hz × 7 channels 3.0–3.1 GB (4.23 GB): 6–90 % above. Below it
-//! with an aux channel whose coupling tests hold more: 4 h × 200 Hz, 6 axes and a temperature
-//! 512–533 MB against 429 MB (the file without the temperature 262 MB). Rows come from the Parquet footer, from the
+//! 510–534 MB (970 MB), 24 h × 400 Hz × 7 channels 3.0–3.1 GB (4.23 GB): 6–90 % above; 4 h ×
+//! 200 Hz, 6 axes and a temperature 328–334 MiB (429 MB; 478 MiB before the coupling test
+//! stopped holding series-long buffers per scale). Rows come from the Parquet footer, from the
 //! sampled length of a CSV line, or from the file size over the stored width of a row (Arrow IPC,
 //! MCAP: an over-estimate where messages carry overhead).
 
