@@ -762,6 +762,9 @@ fn main() {
                     FitWarning::ContradictsReadOff { term, .. } => {
                         format!("{} vs read-off", term.symbol())
                     }
+                    FitWarning::BeyondAllanCurve { term, .. } => {
+                        format!("{} beyond the Allan curve", term.symbol())
+                    }
                     FitWarning::LoopLimitReached { .. } => "loop limit".to_string(),
                     FitWarning::RivalModel { effect, .. } => format!("rival {effect}"),
                     FitWarning::OutputResolution { .. } => "output resolution".to_string(),

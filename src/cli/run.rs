@@ -427,6 +427,7 @@ fn write_tables_and_folders(
                 r.recording.rate_hz,
                 topic,
                 analysis,
+                &r.quality,
             );
             report::write_atomically(&folder.join("imu.yaml"), |w| w.write_all(yaml.as_bytes()))?;
             let plots = folder.join("plots");

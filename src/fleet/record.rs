@@ -204,7 +204,7 @@ fn fill_analysis(rec: &mut ChannelRecord, a: &ChannelAnalysis, units: &EffectUni
                 slot.hi = Some(c.hi);
                 slot.ambiguous = c.ambiguous_with.is_some();
             }
-            None => slot.upper = crate::model::upper_limit(a.allan_fit(), a.spectrum_fit(), term),
+            None => slot.upper = a.combined.limit(term),
         }
     }
     if let Some(l) = &a.residual_loop {

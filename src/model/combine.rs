@@ -102,6 +102,16 @@ pub enum FitWarning {
         read_off: f64,
         tau_s: f64,
     },
+    /// A fitted term alone exceeds the measured Allan variance's 99 % upper bound (shared among
+    /// the points the Allan fit used) at `tau_s`, where the curve allows it at most `allowed`:
+    /// the fit's value is not the data's (a misfit it could not see, or a term taken from the
+    /// other domain's edge).
+    BeyondAllanCurve {
+        term: Term,
+        fitted: f64,
+        allowed: f64,
+        tau_s: f64,
+    },
     /// The residual loop added as many effects as it may (`limit`) and stopped there: effects
     /// beyond those were not looked for, so the model may still lack some.
     LoopLimitReached { limit: usize },
@@ -185,6 +195,16 @@ impl FitWarning {
             } => format!(
                 "fitted {} = {fitted:.4e} lies above what the Allan deviation allows at τ = {tau_s:.3} s \
                  (read-off {read_off:.4e})",
+                term.symbol()
+            ),
+            FitWarning::BeyondAllanCurve {
+                term,
+                fitted,
+                allowed,
+                tau_s,
+            } => format!(
+                "fitted {} = {fitted:.4e} alone lies above the measured Allan deviation at \
+                 τ = {tau_s:.4} s, which allows at most {allowed:.4e}",
                 term.symbol()
             ),
             FitWarning::LoopLimitReached { limit } => format!(
@@ -325,14 +345,29 @@ pub fn resolution_line(
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Combined {
     pub terms: Vec<CombinedTerm>,
+    /// The terms without a combined estimate: the largest value the fits and the measured Allan
+    /// curve allow ([`upper_limit`], within [`allan_cap`]), at the fits' confidence.
+    pub limits: Vec<CombinedLimit>,
     pub read_offs: Vec<ReadOff>,
     pub warnings: Vec<FitWarning>,
+}
+
+/// An upper limit of a term that has no combined estimate.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CombinedLimit {
+    pub term: Term,
+    pub upper: f64,
 }
 
 impl Combined {
     /// The combined estimate of `term`, if either fit kept it.
     pub fn get(&self, term: Term) -> Option<&CombinedTerm> {
         self.terms.iter().find(|t| t.term == term)
+    }
+
+    /// The upper limit of `term` where it has no combined estimate.
+    pub fn limit(&self, term: Term) -> Option<f64> {
+        self.limits.iter().find(|l| l.term == term).map(|l| l.upper)
     }
 }
 
@@ -341,6 +376,10 @@ impl Combined {
 /// intervals miss each other in ≈ 16 % of cases, so non-overlap alone (which still widens the
 /// combined interval to the hull) would warn on half of all clean records.
 const DISAGREE_Z: f64 = 3.29;
+
+/// Two-sided confidence of the measured Allan curve's bounds beyond which a term's value is
+/// ruled out ([`FitWarning::BeyondAllanCurve`]), as for a read-off's contradiction.
+const BEYOND_CURVE_P: f64 = 0.99;
 
 /// Whether an estimate `value` (standard error `s_e` of its logarithm) differs at p < 0.001 from
 /// a term the other fit did not admit, of which that fit gives only `upper`, its upper limit at
@@ -408,6 +447,20 @@ pub fn combine(
         }
     }
     let (allan_fit, spectrum_fit) = (allan, spectrum);
+    // The measured Allan curve's bounds at the τ the Allan fit used (below them a sensor's
+    // low-pass has taken variance out); without an Allan fit the curve is not known to follow
+    // the model anywhere, and nothing is bounded by it.
+    let fitted_from = allan_fit.and_then(|f| f.points.iter().map(|x| x.x).reduce(f64::min));
+    let curve = dev.zip(fitted_from);
+    let bounds = curve.map_or_else(Vec::new, |(dev, min_tau)| {
+        allan_bounds(dev, confidence(allan_fit, spectrum_fit), min_tau)
+    });
+    let bounds_99 = curve.map_or_else(Vec::new, |(dev, min_tau)| {
+        allan_bounds(dev, BEYOND_CURVE_P, min_tau)
+    });
+    let cap = |term: Term| allan_cap(&bounds, term).map(|(c, _)| c);
+    let impossible =
+        |term: Term, value: f64| allan_cap(&bounds_99, term).filter(|&(c, _)| value > c);
     let mut terms = Vec::new();
     for term in Term::ALL {
         let a = allan.and_then(|f| f.get(term));
@@ -429,9 +482,13 @@ pub fn combine(
                 // reaches down to where the neighbour's model puts it, 0 where that model weighs
                 // more than the lower tail (`select::averaged_interval`), and no bound is below 0.
                 let bound = upper(other).filter(|&u| u < e.value);
-                if e.ambiguous_with.is_some() && bound.is_some() && term != Term::RateRamp {
+                if e.ambiguous_with.is_some()
+                    && (bound.is_some() || impossible(term, e.value).is_some())
+                    && term != Term::RateRamp
+                {
                     // Neither fit determines it: this one could not tell it from a neighbour,
-                    // the other bounds it below this estimate. No answer beats a wrong one.
+                    // and the other fit or the measured Allan curve bounds it below this
+                    // estimate. No answer beats a wrong one.
                     continue;
                 }
                 // The other fit did not admit the term and bounds it below this estimate: the
@@ -484,9 +541,21 @@ pub fn combine(
                 let prefer_allan = match (a_clear, s_clear, a_whole, s_whole) {
                     (true, false, ..) => true,
                     (false, true, ..) => false,
+                    // Neither fit could tell the term from a neighbour: the one whose range
+                    // holds its slope regime widest. Relative widths of two intervals down to 0
+                    // favour the larger value (a spectrum's K of 550 [0, 912] °/h/√h, its
+                    // lowest bands holding a warm-up, beat the Allan fit's 3.4 [0, 6.7] on a
+                    // 10-°/h/√h gyro and went into imu.yaml).
+                    (false, false, ..) if home(term).is_some() => home(term) == Some(Domain::Allan),
                     (.., true, false) => true,
                     (.., false, true) => false,
                     _ => relative_width(a) <= relative_width(s),
+                };
+                // An estimate the measured Allan curve rules out yields to one it allows.
+                let prefer_allan = match (impossible(term, a.value), impossible(term, s.value)) {
+                    (Some(_), None) => false,
+                    (None, Some(_)) => true,
+                    _ => prefer_allan,
                 };
                 let (best, domain) = if prefer_allan {
                     (a, Domain::Allan)
@@ -521,17 +590,28 @@ pub fn combine(
         };
         terms.push(combined);
     }
-    // The shortest τ the Allan fit used; without an Allan fit the curve is not known to follow
-    // the model anywhere, and nothing is capped.
-    let fitted_from = allan_fit.and_then(|f| f.points.iter().map(|x| x.x).reduce(f64::min));
-    if let (Some(dev), Some(min_tau)) = (dev, fitted_from) {
-        let bounds = allan_bounds(dev, confidence(allan_fit, spectrum_fit), min_tau);
-        for t in &mut terms {
-            if let Some(cap) = allan_cap(&bounds, t.term) {
-                t.hi = t.hi.min(cap).max(t.value);
-            }
+    for t in &mut terms {
+        if let Some(cap) = cap(t.term) {
+            t.hi = t.hi.min(cap).max(t.value);
+        }
+        if let Some((allowed, tau_s)) = impossible(t.term, t.value) {
+            warnings.push(FitWarning::BeyondAllanCurve {
+                term: t.term,
+                fitted: t.value,
+                allowed,
+                tau_s,
+            });
         }
     }
+    let limits = Term::ALL
+        .into_iter()
+        .filter(|&term| !terms.iter().any(|t| t.term == term))
+        .filter_map(|term| {
+            let upper = upper_limit(allan_fit, spectrum_fit, term)?;
+            let upper = cap(term).map_or(upper, |c| upper.min(c));
+            Some(CombinedLimit { term, upper })
+        })
+        .collect();
     let read_offs = dev.map(read_offs).unwrap_or_default();
     if let Some(dev) = dev {
         for t in &terms {
@@ -554,6 +634,7 @@ pub fn combine(
     }
     Combined {
         terms,
+        limits,
         read_offs,
         warnings,
     }
@@ -748,7 +829,7 @@ fn allan_bounds(dev: &Deviations, p: f64, min_tau_s: f64) -> Vec<(f64, f64)> {
 /// 4.8 °/h/√h had a 95 % interval reaching 133.7, whose Allan deviation alone at τ = 2621 s
 /// (66 °/h) is 4.5 times the measured point's 95 % upper bound (14.6 °/h). Not for the rate ramp,
 /// whose interval the series' test sets.
-fn allan_cap(bounds: &[(f64, f64)], term: Term) -> Option<f64> {
+fn allan_cap(bounds: &[(f64, f64)], term: Term) -> Option<(f64, f64)> {
     if term == Term::RateRamp {
         return None;
     }
@@ -756,9 +837,9 @@ fn allan_cap(bounds: &[(f64, f64)], term: Term) -> Option<f64> {
         .iter()
         .filter_map(|&(tau, bound)| {
             let unit = term.avar_unit(tau);
-            (unit > 0.0).then(|| (bound / unit).sqrt())
+            (unit > 0.0).then(|| ((bound / unit).sqrt(), tau))
         })
-        .reduce(f64::min)
+        .reduce(|a, b| if b.0 < a.0 { b } else { a })
 }
 
 /// The τ at which a term's Allan variance alone is checked against the measurement and the
@@ -923,10 +1004,10 @@ mod tests {
             )
             .unwrap();
             let bounds = allan_bounds(&dev, 0.95, 0.01);
-            let n_cap = allan_cap(&bounds, Term::RandomWalk).unwrap();
+            let n_cap = allan_cap(&bounds, Term::RandomWalk).unwrap().0;
             below += usize::from(n_cap < 0.1);
             assert!(n_cap < 0.2, "seed {seed}: {n_cap}");
-            let k_cap = allan_cap(&bounds, Term::RateRandomWalk).unwrap();
+            let k_cap = allan_cap(&bounds, Term::RateRandomWalk).unwrap().0;
             assert!(k_cap.is_finite() && k_cap < 1.0, "seed {seed}: {k_cap}");
             assert!(allan_cap(&bounds, Term::RateRamp).is_none());
             // A combined K with a wild upper end is cut to the cap, keeping its value.
@@ -953,6 +1034,108 @@ mod tests {
         }
         // The bound holds the truth (one-sided, at least 97.5 % each): at most 2 of 40 below.
         assert!(below <= 2, "{below} of 40 caps below N");
+    }
+
+    /// What the measured Allan curve rules out (white noise, N = 0.1 at 100 Hz): K kept by both
+    /// fits, neither telling it from B, comes from its home (the Allan fit) however the
+    /// intervals' relative widths compare; an N the curve rules out yields to the one it allows
+    /// even where it is the more precise; a term kept ambiguously by one fit beyond the curve
+    /// has no answer; and an upper limit is cut to the curve's.
+    #[test]
+    fn the_allan_curve_rules_estimates_out() {
+        use crate::avar::{compute, Confidence, Statistic, TauGrid};
+        let y = crate::sim::rng::Rng::new(9_300).gauss_vec(100_000);
+        let dev = compute(
+            &y,
+            100.0,
+            &TauGrid::Octave,
+            Statistic::Oadev,
+            Confidence::OneSigma,
+        )
+        .unwrap();
+        let ambiguous = |mut e: TermEstimate| {
+            e.lo = 0.0;
+            e.ambiguous_with = Some(Term::BiasInstability);
+            e
+        };
+        let k = Term::RateRandomWalk;
+        let with_points = |mut f: NoiseFit| {
+            f.points = vec![crate::model::FitPoint {
+                x: 0.01,
+                value: 1.0,
+                model: 1.0,
+                edf: 1.0,
+                z: 0.0,
+            }];
+            f
+        };
+        let a = with_points(fit(
+            Domain::Allan,
+            vec![
+                est(Term::RandomWalk, 0.1, 0.01),
+                ambiguous(est(k, 1e-4, 1.0)),
+            ],
+            vec![(Term::BiasInstability, 1e3)],
+        ));
+        let s = fit(
+            Domain::Spectrum,
+            vec![
+                est(Term::RandomWalk, 3.0, 0.001),
+                ambiguous(est(k, 0.5, 0.6)),
+            ],
+            vec![],
+        );
+        // Without the curve, N is the more precise spectrum's (the hull of both)...
+        let blind = combine(Some(&a), Some(&s), None);
+        assert_eq!(
+            blind.get(Term::RandomWalk).unwrap().source,
+            Domain::Spectrum
+        );
+        // ... with it, the Allan fit's, as K (the spectrum's relative interval is the narrower).
+        let c = combine(Some(&a), Some(&s), Some(&dev));
+        let n = c.get(Term::RandomWalk).unwrap();
+        assert_eq!((n.source, n.value), (Domain::Allan, 0.1), "{n:?}");
+        let got = c.get(k).unwrap();
+        assert_eq!((got.source, got.value), (Domain::Allan, 1e-4), "{got:?}");
+        assert!(
+            !c.warnings
+                .iter()
+                .any(|w| matches!(w, FitWarning::BeyondAllanCurve { .. })),
+            "{:?}",
+            c.warnings
+        );
+        let (b_cap, _) = allan_cap(
+            &allan_bounds(&dev, a.confidence, 0.01),
+            Term::BiasInstability,
+        )
+        .unwrap();
+        assert_eq!(c.limit(Term::BiasInstability), Some(b_cap));
+        assert!(b_cap < 1.0, "{b_cap}");
+        // The Allan fit alone with K ambiguous beyond the curve: no answer, a limit instead.
+        let a = with_points(fit(
+            Domain::Allan,
+            vec![
+                est(Term::RandomWalk, 0.1, 0.01),
+                ambiguous(est(k, 0.5, 0.6)),
+            ],
+            vec![],
+        ));
+        let c = combine(Some(&a), None, Some(&dev));
+        assert!(c.get(k).is_none(), "{:?}", c.get(k));
+        let limit = c.limit(k).unwrap();
+        assert!(limit < 0.5, "{limit}");
+        // Kept clearly beyond it: kept, with a warning.
+        let a = with_points(fit(
+            Domain::Allan,
+            vec![est(Term::RandomWalk, 0.1, 0.01), est(k, 0.5, 0.6)],
+            vec![],
+        ));
+        let c = combine(Some(&a), None, Some(&dev));
+        assert_eq!(c.get(k).unwrap().value, 0.5);
+        assert!(c
+            .warnings
+            .iter()
+            .any(|w| matches!(w, FitWarning::BeyondAllanCurve { term, .. } if *term == k)));
     }
 
     /// A neighbour whose interval reaches 0 does not pull the term to its fit: N comes from the

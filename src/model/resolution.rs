@@ -141,6 +141,7 @@ mod tests {
         terms.extend(q.map(|q| term(Term::Quantization, q)));
         Combined {
             terms,
+            limits: Vec::new(),
             read_offs: Vec::new(),
             warnings: Vec::new(),
         }

@@ -7,17 +7,21 @@
 //! into discrete-time standard deviations with √rate and 1/√rate. Choices, written into the file:
 //! - one value per sensor, the worst (largest) axis, because the file has one number; every axis
 //!   is listed in a comment;
-//! - the combined value where the term is kept; where it is not, the Allan-variance fit's upper
-//!   limit (the habit of the field; the spectrum fit's where the Allan fit failed), marked,
-//!   rather than 0: a filter told "no bias walk" trusts its bias forever. That bound can lie far
-//!   below the combined upper limit of summary.md, which takes the looser of the two fits' bounds
-//!   (on short records the spectrum's is loose);
+//! - the combined value where the term is kept; where it is not, the combined upper limit of
+//!   summary.md (the term's home fit's bound, within what the measured Allan curve allows),
+//!   marked, rather than 0: a filter told "no bias walk" trusts its bias forever;
+//! - a channel the quality screen flagged (saturated, frozen, gravity in another unit, ...) is
+//!   listed with its verdict but is not the worst axis while an unflagged axis of the sensor has
+//!   a value: a clipped accelerometer's random walk (26 times the truth) had gone into the file
+//!   as the sensor's;
+//! - no value that is not finite: YAML readers take `inf` as text;
 //! - the bias instability has no place in Kalibr's model; it is listed per axis for reference.
 
 use std::fmt::Write;
 
 use crate::analysis::ChannelAnalysis;
-use crate::model::{CoefUnit, NoiseFit, Sensor, Term};
+use crate::model::{CoefUnit, Sensor, Term};
+use crate::quality::QualityReport;
 
 use super::format::sig;
 
@@ -26,17 +30,9 @@ fn value_of(a: &ChannelAnalysis, term: Term) -> Option<(f64, bool, &'static str)
     if let Some(c) = a.combined.get(term) {
         return Some((c.value, false, "combined"));
     }
-    let pick = |fit: &NoiseFit, domain| {
-        fit.get(term).map(|e| (e.value, false, domain)).or_else(|| {
-            fit.upper_limits
-                .iter()
-                .find(|u| u.term == term)
-                .map(|u| (u.upper, true, domain))
-        })
-    };
-    a.allan_fit()
-        .and_then(|f| pick(f, "AV"))
-        .or_else(|| a.spectrum_fit().and_then(|f| pick(f, "PSD")))
+    a.combined
+        .limit(term)
+        .map(|upper| (upper, true, "combined"))
 }
 
 /// `4.3630e-5 rad/s/sqrt(Hz) (combined)`: the value in the SI unit of its term.
@@ -56,7 +52,21 @@ fn describe(v: Option<(f64, bool, &'static str)>, sensor: Sensor, term: Term) ->
 pub const KALIBR_HEADER: &str = "# Kalibr IMU noise model written by imunoise";
 
 /// The file's text for the channels of one recording.
-pub fn imu_yaml(source: &str, rate_hz: f64, topic: &str, analysis: &[ChannelAnalysis]) -> String {
+pub fn imu_yaml(
+    source: &str,
+    rate_hz: f64,
+    topic: &str,
+    analysis: &[ChannelAnalysis],
+    quality: &QualityReport,
+) -> String {
+    let flagged = |channel: &str| {
+        quality
+            .channels
+            .iter()
+            .find(|c| c.name == channel)
+            .and_then(|c| c.verdicts.first())
+            .map(|v| v.describe())
+    };
     let mut out = String::new();
     let _ = writeln!(out, "{} {}", KALIBR_HEADER, env!("CARGO_PKG_VERSION"));
     let _ = writeln!(out, "# source: {source}");
@@ -102,7 +112,7 @@ pub fn imu_yaml(source: &str, rate_hz: f64, topic: &str, analysis: &[ChannelAnal
         for a in &channels {
             let _ = writeln!(
                 out,
-                "#   {}: N = {}, K = {}, B = {}",
+                "#   {}: N = {}, K = {}, B = {}{}",
                 a.channel,
                 describe(value_of(a, Term::RandomWalk), sensor, Term::RandomWalk),
                 describe(
@@ -115,16 +125,24 @@ pub fn imu_yaml(source: &str, rate_hz: f64, topic: &str, analysis: &[ChannelAnal
                     sensor,
                     Term::BiasInstability
                 ),
+                flagged(&a.channel).map_or(String::new(), |v| format!(
+                    " [quality: {v}; not taken as the worst axis while another axis has a value]"
+                )),
             );
         }
         for (term, key) in [
             (Term::RandomWalk, "noise_density"),
             (Term::RateRandomWalk, "random_walk"),
         ] {
-            let worst = channels
-                .iter()
-                .filter_map(|a| value_of(a, term).map(|v| (v, &a.channel)))
-                .max_by(|a, b| a.0 .0.total_cmp(&b.0 .0));
+            let values = |clean: bool| {
+                channels
+                    .iter()
+                    .filter(move |a| !clean || flagged(&a.channel).is_none())
+                    .filter_map(|a| value_of(a, term).map(|v| (v, &a.channel)))
+                    .filter(|(v, _)| v.0.is_finite())
+                    .max_by(|a, b| a.0 .0.total_cmp(&b.0 .0))
+            };
+            let worst = values(true).or_else(|| values(false));
             match worst {
                 Some(((v, upper, domain), channel)) => keys.push(format!(
                     "{prefix}_{key}: {v:.6e}  # {} {channel}, {domain}{}",

@@ -132,6 +132,33 @@ pub fn coefficients_table(results: &[&FileResult]) -> Table {
                     c.push(x);
                 }
             }
+            for l in &a.combined.limits {
+                let [_, datasheet, _] = units_of(a.sensor, l.term);
+                let text = [
+                    file_name(&r.recording),
+                    a.channel.clone(),
+                    format!("{:?}", a.sensor).to_lowercase(),
+                    "combined".to_string(),
+                    l.term.symbol().to_string(),
+                    "upper_limit".to_string(),
+                    datasheet.label(),
+                ];
+                for (c, x) in cols.iter_mut().zip(text) {
+                    c.push(x);
+                }
+                let row = [
+                    f64::NAN,
+                    0.0,
+                    l.upper,
+                    f64::NAN,
+                    0.0,
+                    datasheet.from_si(l.upper),
+                    f64::NAN,
+                ];
+                for (c, x) in nums.iter_mut().zip(row) {
+                    c.push(x);
+                }
+            }
             for (domain, fit) in fits(a) {
                 let Some(fit) = fit else { continue };
                 let kept = fit

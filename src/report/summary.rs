@@ -296,8 +296,7 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
             if a.combined.get(term).is_some() {
                 continue;
             }
-            let Some(upper) = crate::model::upper_limit(a.allan_fit(), a.spectrum_fit(), term)
-            else {
+            let Some(upper) = a.combined.limit(term) else {
                 continue;
             };
             let [_, u1, _] = units_of(a.sensor, term);
@@ -585,6 +584,23 @@ pub fn warning_line(w: &FitWarning, sensor: Sensor) -> String {
                 sig4(u.from_si(*fitted)),
                 sig4(*tau_s),
                 sig4(u.from_si(*read_off)),
+                unit = u.pretty()
+            )
+        }
+        FitWarning::BeyondAllanCurve {
+            term,
+            fitted,
+            allowed,
+            tau_s,
+        } => {
+            let [_, u, _] = units_of(sensor, *term);
+            format!(
+                "fitted {} = {} {unit} alone lies above the measured Allan deviation at τ = {} s, \
+                 which allows at most {} {unit}",
+                term.symbol(),
+                sig4(u.from_si(*fitted)),
+                sig4(*tau_s),
+                sig4(u.from_si(*allowed)),
                 unit = u.pretty()
             )
         }
