@@ -116,20 +116,42 @@ impl LoopConfig {
 /// Seconds either side of a filled stretch within which a level change is taken for the fill's.
 const FILLED_MARGIN_S: f64 = 0.5;
 
+/// Share of an excursion's box that a filled stretch may cover before the box is taken for the
+/// fill's.
+const FILLED_BOX_SHARE: f64 = 0.25;
+
 /// Why a step or an excursion is not proposed where it meets a stretch the quality screen filled
 /// with a straight line: a line drawn between two single noisy samples sits off the local mean by
 /// up to the white noise and carries none, so a step at its ends or an excursion over it was the
 /// fill's (a 5-s gap filled in a 100-Hz gyro gave two "steps" of ±170 °/h and an "excursion").
+/// A level change meets the stretch where its time, or any time of its interval, lies within
+/// [`FILLED_MARGIN_S`] of it; an excursion also where the stretch covers [`FILLED_BOX_SHARE`] of
+/// its box (a 10-s fill in a 200-Hz record gave excursions of 14–15 s around it, their ends at
+/// the resolution of the scan's blocks, 1.5–3 s away).
 fn on_filled_stretch(effect: &Effect, filled: &[(f64, f64)]) -> Option<String> {
-    let times: Vec<f64> = match effect {
-        Effect::Step(s) => vec![s.time_s],
-        Effect::Excursion(e) => vec![e.start_s, e.end_s],
+    let span = |t: f64, interval: Option<(f64, f64)>| {
+        interval.map_or((t, t), |(lo, hi)| (lo.min(t), hi.max(t)))
+    };
+    let (times, boxed): (Vec<(f64, f64)>, Option<(f64, f64)>) = match effect {
+        Effect::Step(s) => (vec![span(s.time_s, s.time_interval_s)], None),
+        Effect::Excursion(e) => (
+            vec![
+                span(e.start_s, e.start_interval_s),
+                span(e.end_s, e.end_interval_s),
+            ],
+            Some((e.start_s, e.end_s)),
+        ),
         _ => return None,
     };
     let (a, b) = filled.iter().copied().find(|&(a, b)| {
-        times
+        let near = times
             .iter()
-            .any(|&t| t >= a - FILLED_MARGIN_S && t <= b + FILLED_MARGIN_S)
+            .any(|&(lo, hi)| hi >= a - FILLED_MARGIN_S && lo <= b + FILLED_MARGIN_S);
+        let covers = boxed.is_some_and(|(start, end)| {
+            let overlap = end.min(b) - start.max(a);
+            end > start && overlap >= FILLED_BOX_SHARE * (end - start)
+        });
+        near || covers
     })?;
     Some(format!(
         "not proposed: at the gap filled with a straight line from {a:.3} s to {b:.3} s \
@@ -1257,5 +1279,47 @@ fn excess_note(e: &Excess, why: &str) -> Rejected {
         kind: "excess",
         delta_bic: None,
         note: format!("{}; {why}", describe_excess(e)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn excursion(start_s: f64, end_s: f64) -> Effect {
+        Effect::Excursion(crate::effects::excursion::Excursion {
+            start_index: 0,
+            end_index: 0,
+            start_s,
+            end_s,
+            start_interval_s: Some((start_s - 0.2, start_s + 0.2)),
+            end_interval_s: Some((end_s - 0.2, end_s + 0.2)),
+            interval_cut: false,
+            size: 1.0,
+            lo: 0.5,
+            hi: 1.5,
+            after: None,
+            z: 8.0,
+            p_value: 1e-9,
+            delta_bic: -40.0,
+            boxes: 1000,
+            over_step_t2: 30.0,
+            step_price_t2: 13.0,
+            block_s: 2.3,
+            increments: 512,
+        })
+    }
+
+    /// A 10-s fill from 3000.15 s: the box of 2997.0–3011.7 s around it (ends 3 s and 1.5 s
+    /// away, as claimed on a 2-h 200-Hz record) is the fill's; a 300-s excursion that holds it,
+    /// or one that ends 2 s before it, is not.
+    #[test]
+    fn an_excursion_around_a_filled_stretch_is_the_fills() {
+        let filled = [(3000.15, 3010.15)];
+        assert!(on_filled_stretch(&excursion(2997.0, 3011.7), &filled).is_some());
+        assert!(on_filled_stretch(&excursion(2900.0, 3200.0), &filled).is_none());
+        assert!(on_filled_stretch(&excursion(2800.0, 2998.0), &filled).is_none());
+        // An end whose interval reaches within the margin.
+        assert!(on_filled_stretch(&excursion(2800.0, 2999.5), &filled).is_some());
     }
 }
