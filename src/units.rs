@@ -66,6 +66,23 @@ pub enum Unit {
     MilliVolt,
     #[serde(rename = "1")]
     One,
+    /// Increments per sample (incremental-angle and -velocity outputs, Δθ and Δv): read as the
+    /// rate over one sample period, the increment times the sample rate (see
+    /// [`Unit::per_sample`]).
+    #[serde(rename = "rad")]
+    Rad,
+    #[serde(rename = "mrad")]
+    Millirad,
+    #[serde(rename = "urad")]
+    Microrad,
+    #[serde(rename = "deg")]
+    Deg,
+    #[serde(rename = "arcsec")]
+    Arcsec,
+    #[serde(rename = "m/s")]
+    MPerS,
+    #[serde(rename = "mm/s")]
+    MmPerS,
 }
 
 /// Every accepted spelling, lower-cased, with the unit it means. Kept as one table so that `--help`,
@@ -96,27 +113,67 @@ const SPELLINGS: &[(&str, Unit)] = &[
     ("1", Unit::One),
     ("counts", Unit::One),
     ("lsb", Unit::One),
+    ("rad", Unit::Rad),
+    ("mrad", Unit::Millirad),
+    ("urad", Unit::Microrad),
+    ("µrad", Unit::Microrad),
+    ("μrad", Unit::Microrad),
+    ("deg", Unit::Deg),
+    ("°", Unit::Deg),
+    ("arcsec", Unit::Arcsec),
+    ("m/s", Unit::MPerS),
+    ("mm/s", Unit::MmPerS),
 ];
 
 impl Unit {
     pub fn quantity(self) -> Quantity {
         match self {
-            Unit::RadPerS | Unit::MilliradPerS | Unit::DegPerS | Unit::DegPerH => {
-                Quantity::AngularRate
+            Unit::RadPerS
+            | Unit::MilliradPerS
+            | Unit::DegPerS
+            | Unit::DegPerH
+            | Unit::Rad
+            | Unit::Millirad
+            | Unit::Microrad
+            | Unit::Deg
+            | Unit::Arcsec => Quantity::AngularRate,
+            Unit::MPerS2 | Unit::G | Unit::MilliG | Unit::MicroG | Unit::MPerS | Unit::MmPerS => {
+                Quantity::Acceleration
             }
-            Unit::MPerS2 | Unit::G | Unit::MilliG | Unit::MicroG => Quantity::Acceleration,
             Unit::DegC | Unit::Kelvin => Quantity::Temperature,
             Unit::Volt | Unit::MilliVolt => Quantity::Voltage,
             Unit::One => Quantity::Dimensionless,
         }
     }
 
-    /// `si = value · factor + offset`, into [`Quantity::si_unit`].
+    /// Whether values are increments over one sample period (Δθ, Δv) rather than rates: a
+    /// navigation-grade gyro's or accelerometer's native output. The rate is the increment times
+    /// the sample rate (the nominal period, as IEEE Std 952 reads Δθ/Δt); [`Unit::to_si`] gives
+    /// the increment's factor, and the reader multiplies by the rate.
+    pub fn per_sample(self) -> bool {
+        matches!(
+            self,
+            Unit::Rad
+                | Unit::Millirad
+                | Unit::Microrad
+                | Unit::Deg
+                | Unit::Arcsec
+                | Unit::MPerS
+                | Unit::MmPerS
+        )
+    }
+
+    /// `si = value · factor + offset`, into [`Quantity::si_unit`] (for a [`Unit::per_sample`]
+    /// unit, into the increment's SI unit, rad or m/s, which the sample rate turns into the rate).
     pub fn to_si(self) -> (f64, f64) {
         use std::f64::consts::PI;
         match self {
             Unit::RadPerS | Unit::MPerS2 | Unit::DegC | Unit::Volt | Unit::One => (1.0, 0.0),
-            Unit::MilliradPerS | Unit::MilliVolt => (1e-3, 0.0),
+            Unit::Rad | Unit::MPerS => (1.0, 0.0),
+            Unit::MilliradPerS | Unit::MilliVolt | Unit::Millirad | Unit::MmPerS => (1e-3, 0.0),
+            Unit::Microrad => (1e-6, 0.0),
+            Unit::Deg => (PI / 180.0, 0.0),
+            Unit::Arcsec => (PI / 180.0 / 3600.0, 0.0),
             Unit::DegPerS => (PI / 180.0, 0.0),
             Unit::DegPerH => (PI / 180.0 / 3600.0, 0.0),
             Unit::G => (STANDARD_GRAVITY, 0.0),
@@ -142,6 +199,13 @@ impl Unit {
             Unit::Volt => "V",
             Unit::MilliVolt => "mV",
             Unit::One => "1",
+            Unit::Rad => "rad",
+            Unit::Millirad => "mrad",
+            Unit::Microrad => "urad",
+            Unit::Deg => "deg",
+            Unit::Arcsec => "arcsec",
+            Unit::MPerS => "m/s",
+            Unit::MmPerS => "mm/s",
         }
     }
 
@@ -162,6 +226,13 @@ impl Unit {
             Unit::Volt => "V",
             Unit::MilliVolt => "mV",
             Unit::One => "1",
+            Unit::Rad => "rad",
+            Unit::Millirad => "mrad",
+            Unit::Microrad => "µrad",
+            Unit::Deg => "°",
+            Unit::Arcsec => "arcsec",
+            Unit::MPerS => "m/s",
+            Unit::MmPerS => "mm/s",
         }
     }
 
@@ -334,6 +405,17 @@ mod tests {
         assert_eq!((s.factor, s.unit), (1.0, Unit::MPerS2));
         assert!("0 deg/s".parse::<ScaledUnit>().is_err());
         assert!("2 furlongs".parse::<ScaledUnit>().is_err());
+    }
+
+    /// Increments per sample read as rates of their quantity (a gyro's Δθ, an accelerometer's
+    /// Δv); rates are not increments.
+    #[test]
+    fn increments_are_rates_per_sample() {
+        assert!(Unit::Arcsec.per_sample() && Unit::MPerS.per_sample());
+        assert!(!Unit::DegPerS.per_sample() && !Unit::MPerS2.per_sample());
+        assert_eq!(Kind::implied_by(Some(Unit::Microrad)), Kind::Gyro);
+        assert_eq!(Kind::implied_by(Some(Unit::MmPerS)), Kind::Accel);
+        assert_eq!(Unit::Arcsec.to_si().0, Unit::DegPerH.to_si().0);
     }
 
     #[test]

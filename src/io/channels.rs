@@ -23,6 +23,10 @@ pub struct ChannelSpec {
     pub kind: Kind,
     /// Multiplier from stored integers to `unit` (field metadata `scale`), 1 when absent.
     pub scale: f64,
+    /// The sample rate where `unit` is an increment per sample ([`Unit::per_sample`]: Δθ, Δv),
+    /// which turns it into a rate; 1 otherwise.
+    #[serde(skip)]
+    pub per_second: f64,
 }
 
 impl ChannelSpec {
@@ -34,7 +38,7 @@ impl ChannelSpec {
     /// `si = raw · factor + offset`, scale and unit conversion combined.
     pub fn to_si(&self) -> (f64, f64) {
         let (factor, offset) = self.unit.map(Unit::to_si).unwrap_or((1.0, 0.0));
-        (self.scale * factor, offset)
+        (self.scale * factor * self.per_second, offset)
     }
 }
 
@@ -658,6 +662,7 @@ fn channel_spec(
         unit,
         kind,
         scale,
+        per_second: 1.0,
     })
 }
 

@@ -19,6 +19,8 @@ use std::path::{Path, PathBuf};
 use arrow_schema::SchemaRef;
 use serde::Serialize;
 
+use crate::units::Unit;
+
 pub use batches::{split_header_unit, DEFAULT_BATCH_ROWS};
 pub use channels::{
     rate_text, ChannelSpec, ColumnOverrides, TimeEncoding, TimeSpec, TimeUnit, TimeUnitSource,
@@ -216,6 +218,19 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Recording, InputError>
                 ),
             });
         }
+    }
+    let mut channels = channels;
+    for c in channels
+        .iter_mut()
+        .filter(|c| c.unit.is_some_and(Unit::per_sample))
+    {
+        c.per_second = rate_hz;
+        notes.push(format!(
+            "{} holds increments per sample ({}): read as the rate, times the sample rate \
+             {rate_hz} Hz",
+            c.name,
+            c.unit.map_or("", Unit::as_str),
+        ));
     }
     Ok(Recording {
         path: path.to_path_buf(),

@@ -797,6 +797,35 @@ fn malformed_csv_records_name_row_and_line() {
         );
     };
     counts("time [s],gx [0.01 deg/s]", &Inputs::default());
+    // Increments per sample (a navigation gyro's Δθ, an accelerometer's Δv) read as rates:
+    // times the sample rate, 50 Hz here, with a note saying so.
+    write_csv_text(
+        &path,
+        "time [s],gx [arcsec],ax [mm/s]",
+        (0..50).map(|i| format!("{},{},{}", i as f64 / 50.0, i % 5, 2 * (i % 3))),
+    );
+    let rec = io::open(&path, &OpenOptions::default()).unwrap();
+    assert_eq!(rec.channels[0].kind, imunoise::units::Kind::Gyro);
+    assert_eq!(rec.channels[1].kind, imunoise::units::Kind::Accel);
+    assert!(
+        rec.notes
+            .iter()
+            .any(|n| n.contains("gx holds increments per sample")),
+        "{:?}",
+        rec.notes
+    );
+    let read = read_all(&path, &Inputs::default()).unwrap().0;
+    let arcsec = deg / 3600.0;
+    assert!(
+        (read[0][3] - 3.0 * arcsec * 50.0).abs() < 1e-15,
+        "{:?}",
+        &read[0][..5]
+    );
+    assert!(
+        (read[1][2] - 4.0e-3 * 50.0).abs() < 1e-15,
+        "{:?}",
+        &read[1][..5]
+    );
     let mut flagged = Inputs::default();
     flagged.open.columns.units = vec![("gx".into(), "0.01 deg/s".parse().unwrap())];
     counts("time [s],gx", &flagged);
