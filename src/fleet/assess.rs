@@ -20,7 +20,13 @@
 //! - **Unusual effects** per sensor kind: an effect kind the residual loop added on fewer than
 //!   `rare_effect_share` of the analysed siblings (at least `min_siblings` of them) marks each
 //!   channel that shows it (a line on one robot of fifty; not the temperature coupling every unit
-//!   of the batch shows).
+//!   of the batch shows) — where the channel's evidence for it would stand out among that many
+//!   siblings: ΔBIC at or below [`rare_effect_bic`] (the loop's −6 less 2·ln of the siblings,
+//!   −17 among 300), as a p-value is divided by the number of tests. The loop's own threshold
+//!   is one channel's: on clean simulated fleets it adds a chance effect (a Gaussian-tail
+//!   "spike", a step in a random walk) to about 1–2 % of channels, which flagged 10–22 % of
+//!   6-axis units as unusual; their ΔBIC was −6.1 to −14.4. A weaker effect stays in the row's
+//!   effects, unflagged.
 //! - **Quality**: a channel the quality screen gave a verdict other than `no_unit` (stuck,
 //!   frozen runs, saturation, too few levels), or an output grid too coarse to read its noise
 //!   from (`coarse_output`, from the [`crate::model::FitWarning::OutputResolution`] warning).
@@ -38,6 +44,12 @@ use super::robust::RobustScale;
 use super::spec::Spec;
 use super::table::sensor_name;
 use super::verdict::{judge, Basis, Verdict};
+
+/// The ΔBIC an effect few of `siblings` channels show must reach to mark the channel unusual:
+/// the loop's [`crate::effects::closing::ADMIT_BIC`] less 2·ln(siblings).
+pub fn rare_effect_bic(siblings: usize) -> f64 {
+    crate::effects::closing::ADMIT_BIC - 2.0 * (siblings.max(1) as f64).ln()
+}
 
 /// One term of one channel, judged.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -273,7 +285,18 @@ pub fn assess(mut records: Vec<ChannelRecord>, spec: &Spec) -> Fleet {
                             .get(&(name, k.clone()))
                             .copied()
                             .unwrap_or(0);
-                        if (count as f64) < opts.rare_effect_share * siblings as f64 {
+                        // The strongest evidence for this kind on the channel (records without
+                        // the ΔBIC column count as strong).
+                        let evidence = record
+                            .effects
+                            .iter()
+                            .zip(record.effects_delta_bic.iter().chain(std::iter::repeat(&f64::NEG_INFINITY)))
+                            .filter(|(e, _)| *e == k)
+                            .map(|(_, &d)| d)
+                            .fold(f64::INFINITY, f64::min);
+                        if (count as f64) < opts.rare_effect_share * siblings as f64
+                            && evidence <= rare_effect_bic(siblings)
+                        {
                             let detail = record
                                 .effects
                                 .iter()
@@ -345,6 +368,7 @@ mod tests {
         r.confidence = Some(0.6827);
         r.effects = effects.iter().map(|s| s.to_string()).collect();
         r.effects_detail = effects.iter().map(|s| format!("{s} detail")).collect();
+        r.effects_delta_bic = vec![-100.0; effects.len()];
         r
     }
 
@@ -357,6 +381,12 @@ mod tests {
         records[3] = channel(3, 3.0 * n0, &["coupling"]);
         records[7].effects.push("sinusoid".into());
         records[7].effects_detail.push("line at 7 Hz".into());
+        records[7].effects_delta_bic.push(-500.0);
+        // A rare effect with one channel's evidence (ΔBIC −9), not what stands out among 12
+        // (−6 − 2·ln 12 = −11.0): listed, not flagged.
+        records[9].effects.push("spikes".into());
+        records[9].effects_detail.push("1 spike".into());
+        records[9].effects_delta_bic.push(-9.0);
         let spec = Spec::parse("[gyro]\nN = \"0.3 deg/sqrt(h)\"\nR = \"1 deg/h^2\"").unwrap();
         let fleet = assess(records, &spec);
         let flagged: Vec<&str> = fleet
@@ -394,6 +424,8 @@ mod tests {
         let s7 = &fleet.rows[7];
         assert_eq!(s7.unusual_effects[0].kind, "sinusoid");
         assert_eq!(s7.unusual_effects[0].count, 1);
+        assert!(fleet.rows[9].unusual_effects.is_empty() && !fleet.rows[9].flagged);
+        assert!((rare_effect_bic(12) + 10.97).abs() < 0.01);
         // The coupling every channel shows is not unusual.
         assert!(fleet
             .rows

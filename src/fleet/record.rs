@@ -100,6 +100,9 @@ pub struct ChannelRecord {
     pub effects: Vec<String>,
     /// The same, described with parameters and intervals.
     pub effects_detail: Vec<String>,
+    /// The same, each one's ΔBIC when the loop added it (the fleet step asks more evidence of an
+    /// effect that few siblings show: [`super::assess`]).
+    pub effects_delta_bic: Vec<f64>,
     /// Names of the quality verdicts (`stuck_run`, `possibly_saturated`, …).
     pub quality: Vec<String>,
     pub quality_detail: Vec<String>,
@@ -128,6 +131,7 @@ impl ChannelRecord {
             confidence: None,
             effects: Vec::new(),
             effects_detail: Vec::new(),
+            effects_delta_bic: Vec::new(),
             quality: Vec::new(),
             quality_detail: Vec::new(),
             warnings: Vec::new(),
@@ -211,6 +215,7 @@ fn fill_analysis(rec: &mut ChannelRecord, a: &ChannelAnalysis, units: &EffectUni
         for s in &l.steps {
             rec.effects.push(s.effect.kind().to_string());
             rec.effects_detail.push(effect_line(&s.effect, units));
+            rec.effects_delta_bic.push(s.delta_bic);
         }
     }
     for w in &a.combined.warnings {

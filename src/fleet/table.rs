@@ -11,7 +11,7 @@
 //! `duration_s`, `samples`, `analysed`, per term `q_`/`n_`/`b_`/`k_`/`r_` + `value`, `lo`, `hi`,
 //! `upper` (the upper limit where there is no value), `confidence` (two-sided probability of the
 //! intervals), `effects` (comma-joined kinds),
-//! `effects_detail` (list), `quality` (comma-joined verdicts), `quality_detail` (list),
+//! `effects_detail` (list), `effects_delta_bic` (list: each effect's ΔBIC), `quality` (comma-joined verdicts), `quality_detail` (list),
 //! `warnings` (list). The fleet table adds per term `limit`, `verdict`, `basis`, `z`,
 //! `fleet_median`, `outlier`, and `unusual_effects`, `flagged`, `reasons`.
 
@@ -107,6 +107,7 @@ struct Common {
     confidence: Float64Builder,
     effects: StringBuilder,
     effects_detail: ListBuilder<StringBuilder>,
+    effects_delta_bic: ListBuilder<Float64Builder>,
     quality: StringBuilder,
     quality_detail: ListBuilder<StringBuilder>,
     warnings: ListBuilder<StringBuilder>,
@@ -142,6 +143,7 @@ impl Common {
             confidence: Float64Builder::new(),
             effects: StringBuilder::new(),
             effects_detail: ListBuilder::new(StringBuilder::new()),
+            effects_delta_bic: ListBuilder::new(Float64Builder::new()),
             quality: StringBuilder::new(),
             quality_detail: ListBuilder::new(StringBuilder::new()),
             warnings: ListBuilder::new(StringBuilder::new()),
@@ -174,6 +176,10 @@ impl Common {
         self.confidence.append_option(r.confidence);
         self.effects.append_value(r.effects.join(","));
         push_list(&mut self.effects_detail, &r.effects_detail);
+        for &d in &r.effects_delta_bic {
+            self.effects_delta_bic.values().append_value(d);
+        }
+        self.effects_delta_bic.append(true);
         self.quality.append_value(r.quality.join(","));
         push_list(&mut self.quality_detail, &r.quality_detail);
         push_list(&mut self.warnings, &r.warnings);
@@ -218,6 +224,10 @@ impl Common {
             s("confidence", Arc::new(self.confidence.finish())),
             s("effects", Arc::new(self.effects.finish())),
             list("effects_detail", Arc::new(self.effects_detail.finish())),
+            s(
+                "effects_delta_bic",
+                Arc::new(self.effects_delta_bic.finish()),
+            ),
             s("quality", Arc::new(self.quality.finish())),
             list("quality_detail", Arc::new(self.quality_detail.finish())),
             list("warnings", Arc::new(self.warnings.finish())),
@@ -325,6 +335,19 @@ fn opt<T>(valid: bool, v: T) -> Option<T> {
     valid.then_some(v)
 }
 
+fn list_numbers(a: &ListArray, i: usize) -> Vec<f64> {
+    if a.is_null(i) {
+        return Vec::new();
+    }
+    let v = a.value(i);
+    match v.as_any().downcast_ref::<Float64Array>() {
+        Some(x) => (0..x.len())
+            .map(|j| if x.is_valid(j) { x.value(j) } else { f64::NAN })
+            .collect(),
+        None => Vec::new(),
+    }
+}
+
 fn list_items(a: &ListArray, i: usize) -> Vec<String> {
     if a.is_null(i) {
         return Vec::new();
@@ -393,6 +416,7 @@ fn records_from_batch(b: &RecordBatch, out: &mut Vec<ChannelRecord>) -> Result<(
     let confidence = column::<Float64Array>(b, "confidence")?;
     let (effects, quality) = (text("effects")?, text("quality")?);
     let effects_detail = column::<ListArray>(b, "effects_detail")?;
+    let effects_delta_bic = column::<ListArray>(b, "effects_delta_bic")?;
     let quality_detail = column::<ListArray>(b, "quality_detail")?;
     let warnings = column::<ListArray>(b, "warnings")?;
     let f = |a: &Float64Array, i: usize| opt(a.is_valid(i), a.value(i));
@@ -430,6 +454,7 @@ fn records_from_batch(b: &RecordBatch, out: &mut Vec<ChannelRecord>) -> Result<(
             confidence: f(confidence, i),
             effects: split_joined(effects.value(i)),
             effects_detail: list_items(effects_detail, i),
+            effects_delta_bic: list_numbers(effects_delta_bic, i),
             quality: split_joined(quality.value(i)),
             quality_detail: list_items(quality_detail, i),
             warnings: list_items(warnings, i),
