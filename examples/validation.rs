@@ -165,6 +165,15 @@ fn study_cases() -> Vec<Case> {
             rate: None,
         },
         Case {
+            name: "clean, random walk ruling from 20 s (K = 50 °/h/√h hides B), 20-min records at 200 Hz"
+                .into(),
+            filtered: false,
+            extra: json!({ "noise": { "k": CoefUnit::DegPerHPerSqrtH.to_si(50.0) } }),
+            expect: None,
+            seconds: Some(1200.0),
+            rate: Some(200.0),
+        },
+        Case {
             name: "N and B only (no K), 60-min records".into(),
             filtered: false,
             extra: json!({ "noise": { "k": 0.0 } }),

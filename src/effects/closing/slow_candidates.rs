@@ -60,13 +60,14 @@ pub(super) fn refined<T>(
     estimate: &dyn Fn(Density<'_>) -> Option<T>,
     remove: &dyn Fn(&mut Vec<f64>, &T),
     iterate: Option<&dyn Fn(&T) -> f64>,
+    k: NoiseK,
 ) -> T {
     let mut current = first;
     let passes = if iterate.is_some() { REFINE_PASSES } else { 1 };
     for pass in 0..passes {
         let correct = |v: &mut Vec<f64>| remove(v, &current);
         let next = allan_without(state, fs, cfg, &correct)
-            .and_then(|fit| estimate(&noise_density(&fit, state.stochastic.as_ref(), fs)));
+            .and_then(|fit| estimate(&noise_density(&fit, state.stochastic.as_ref(), fs, k)));
         let Some(next) = next else { break };
         // The first pass replaces the estimate made under the fit that holds the effect; a later
         // one only while the evidence grows, and none once it has none left to grow from.
@@ -101,7 +102,7 @@ pub(super) fn slow_candidates<'a>(
         return out;
     };
     let stochastic = state.stochastic.as_ref();
-    let density = noise_density(model, stochastic, fs);
+    let density = noise_density(model, stochastic, fs, NoiseK::Fitted);
     let usable: Vec<&AuxSeries<'_>> = aux.iter().filter(|a| a.samples.len() == y.len()).collect();
     // The couplings strong enough to be added, for the drift's test below.
     let mut detected: Vec<(&str, &[f64], Coupling)> = Vec::new();
@@ -122,6 +123,7 @@ pub(super) fn slow_candidates<'a>(
                 &estimate,
                 &|v, c| remove_coupling(v, a.samples, c),
                 None,
+                NoiseK::Fitted,
             )
         } else {
             first
@@ -184,10 +186,12 @@ pub(super) fn slow_candidates<'a>(
         d.veto = explained_by_coupling(d, &detected, y, fs, &density, p);
     }
     out.extend(drift);
-    // One scan of every box gives the best excursion and the best single step.
+    // One scan of every box gives the best excursion and the best single step, under K guarded.
+    let guarded = noise_density(model, stochastic, fs, NoiseK::Guarded);
+    let increments = IncrementModel::for_series(&guarded, fs, y, MAX_INCREMENTS);
     let boxes = increments
         .as_ref()
-        .and_then(|(m, u)| BoxSearch::new(y, fs, &density, m, u));
+        .and_then(|(m, u)| BoxSearch::new(y, fs, &guarded, m, u));
     let first = boxes.as_ref().and_then(|b| step_from_search(b, p));
     let estimate = |density: &dyn Fn(f64) -> f64| step_under_model(y, fs, density, p);
     out.extend(slow_candidate(state, fs, cfg, first, &estimate));
@@ -237,6 +241,9 @@ fn explained_by_coupling(
 pub(super) trait SlowEffect: Clone + Send + 'static {
     /// Whether its feasible GLS iterates (see [`refined`]).
     const ITERATE: bool = false;
+    /// Whether it is weighed against a random walk the record does not determine at the upper
+    /// end of K's interval ([`NoiseK::Guarded`]).
+    const NOISE_K: NoiseK = NoiseK::Fitted;
     fn p_value(&self) -> f64;
     fn delta_bic(&self) -> f64;
     fn evidence(&self) -> String;
@@ -267,6 +274,7 @@ impl SlowEffect for Drift {
 }
 
 impl SlowEffect for Step {
+    const NOISE_K: NoiseK = NoiseK::Guarded;
     fn p_value(&self) -> f64 {
         self.p_value
     }
@@ -288,6 +296,7 @@ impl SlowEffect for Step {
 }
 
 impl SlowEffect for Excursion {
+    const NOISE_K: NoiseK = NoiseK::Guarded;
     fn p_value(&self) -> f64 {
         self.p_value
     }
@@ -332,6 +341,7 @@ pub(super) fn slow_candidate<T: SlowEffect>(
             estimate,
             &|v, e: &T| e.remove(v, fs),
             T::ITERATE.then_some(&|e: &T| e.p_value()),
+            T::NOISE_K,
         )
     } else {
         first
