@@ -237,9 +237,10 @@ pub struct InputArgs {
 
     /// What to do where the time column shows missing samples (an interval over 1.5 sample periods):
     /// error (stop, naming the row), ignore (report, analyse as contiguous), fill (insert linearly
-    /// interpolated samples).
-    #[arg(long, default_value = "error", value_name = "POLICY")]
-    pub on_gap: String,
+    /// interpolated samples). Default: error, except for `info`, which describes the gaps
+    /// (ignore).
+    #[arg(long, value_name = "POLICY")]
+    pub on_gap: Option<String>,
 
     /// MCAP files: the sensor_msgs/msg/Imu topic to read (needed when a file has several; the error
     /// lists them). Temperature topics join as channels. An error for other formats.

@@ -112,7 +112,9 @@ pub fn job(cli: Cli) -> Result<Job, UsageError> {
         Command::Screen(_) => return Err(usage("screen is run by cli::screen")),
     };
     let mut options = serde_json::Map::new();
-    let inputs = inputs(&input, &mut options)?;
+    // `info` describes a file, gaps included: it reads past them unless told otherwise.
+    let gap_default = if command == "info" { "ignore" } else { "error" };
+    let inputs = inputs(&input, gap_default, &mut options)?;
     let welch = welch.map(|w| welch_work(&w, &mut options)).transpose()?;
     let mut avar = avar.map(|a| avar_work(&a, &mut options)).transpose()?;
     let kalibr_topic = fit.as_ref().map(|f| f.rostopic.clone());
@@ -171,6 +173,7 @@ where
 
 fn inputs(
     a: &InputArgs,
+    gap_default: &str,
     options: &mut serde_json::Map<String, Value>,
 ) -> Result<Inputs, UsageError> {
     if let Some(r) = a.rate {
@@ -197,6 +200,8 @@ fn inputs(
             .map_err(|e| usage(format!("--on-nonfinite: {e}")))?,
         gaps: a
             .on_gap
+            .as_deref()
+            .unwrap_or(gap_default)
             .parse()
             .map_err(|e| usage(format!("--on-gap: {e}")))?,
     };

@@ -256,8 +256,8 @@ pub fn run(job: &Job) -> i32 {
                     }
                     // A rate ramp the series' test kept, dropped or added: the one change to
                     // the IEEE terms that no effect line shows.
-                    for d in a.ramp_decisions().filter(|_| !job.output.quiet) {
-                        let text = report::ramp_sentence(d, a.sensor);
+                    let text = report::ramp_sentences(a);
+                    if !job.output.quiet && !text.is_empty() {
                         bar.line(&format!("ramp  {}:{text}", a.channel));
                     }
                     let Some(l) = &a.residual_loop else { continue };

@@ -63,7 +63,8 @@ pub struct CombinedTerm {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct ReadOff {
     pub term: Term,
-    /// τ it is read at, s (1 s for N, the minimum for B, 3 s for K).
+    /// τ it is read at, s: 1 s for N and 3 s for K where the curve has the term's slope there,
+    /// else where the term's slope line touches the curve ([`slope_line`]); the minimum for B.
     pub tau_s: f64,
     pub value: f64,
     pub lo: f64,
@@ -726,6 +727,64 @@ fn at(dev: &Deviations, tau: f64) -> Option<(f64, f64, f64, f64)> {
     ))
 }
 
+/// How far (in log σ per log τ) the curve's local slope may be from a term's for the term's slope
+/// line to be read there.
+const SLOPE_TOLERANCE: f64 = 0.15;
+
+/// A read-off of N or K by its slope line (σ = N/√τ, σ = K·√(τ/3)) through the measured curve
+/// where the curve has the term's `slope`, read at `tau` (1 s for N, 3 s for K), as the field
+/// reads them by hand (IEEE Std 952 Annex C, and allan_variance_ros's fitted lines): at `tau`
+/// itself where the local slope there is the term's, else through the midpoint of the pair of
+/// neighbouring points whose slope is nearest the term's (within [`SLOPE_TOLERANCE`]; nearest
+/// `tau` among equals), else at `tau` with the slope shown. The value at τ = 3 s alone, where N
+/// still rules there, had read K at 15× the fitted value (slope −0.45) on a 1-kHz MEMS gyro.
+fn slope_line(dev: &Deviations, term: Term, tau: f64, slope: f64) -> Option<ReadOff> {
+    let read = |v: f64, at: f64| v * term.avar_unit(tau) / term.avar_unit(at);
+    let (v, lo, hi, local) = at(dev, tau)?;
+    let here = ReadOff {
+        term,
+        tau_s: tau,
+        value: v.sqrt(),
+        lo: lo.sqrt(),
+        hi: hi.sqrt(),
+        slope: local,
+    };
+    if (local - slope).abs() <= SLOPE_TOLERANCE {
+        return Some(here);
+    }
+    let usable = |i: usize| dev.variance[i] > 0.0 && dev.variance[i].is_finite();
+    let best = (0..dev.len().saturating_sub(1))
+        .filter(|&i| usable(i) && usable(i + 1))
+        .map(|i| {
+            let s = 0.5 * (dev.variance[i + 1] / dev.variance[i]).ln()
+                / (dev.tau_s[i + 1] / dev.tau_s[i]).ln();
+            (i, s)
+        })
+        .filter(|(_, s)| (s - slope).abs() <= SLOPE_TOLERANCE)
+        .min_by(|a, b| {
+            let key = |(i, s): (usize, f64)| {
+                let mid = (dev.tau_s[i] * dev.tau_s[i + 1]).sqrt();
+                ((s - slope).abs(), (mid / tau).ln().abs())
+            };
+            key(*a)
+                .partial_cmp(&key(*b))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+    let Some((i, s)) = best else {
+        return Some(here);
+    };
+    let mid = (dev.tau_s[i] * dev.tau_s[i + 1]).sqrt();
+    let geo = |x: &[f64]| (x[i] * x[i + 1]).sqrt();
+    Some(ReadOff {
+        term,
+        tau_s: mid,
+        value: read(geo(&dev.variance), mid).sqrt(),
+        lo: read(geo(&dev.variance_lo), mid).sqrt(),
+        hi: read(geo(&dev.variance_hi), mid).sqrt(),
+        slope: s,
+    })
+}
+
 /// The index of the smallest Allan variance.
 fn minimum(dev: &Deviations) -> Option<usize> {
     (0..dev.len())
@@ -736,17 +795,12 @@ fn minimum(dev: &Deviations) -> Option<usize> {
 /// The IEEE read-offs of N, B and K from `dev`.
 pub fn read_offs(dev: &Deviations) -> Vec<ReadOff> {
     let mut out = Vec::new();
-    for (term, tau) in [(Term::RandomWalk, 1.0), (Term::RateRandomWalk, 3.0)] {
-        if let Some((v, lo, hi, slope)) = at(dev, tau) {
-            // N = σ(1 s)·√1; K = σ(3 s)·√(3/3): the slope lines' values at their τ.
-            out.push(ReadOff {
-                term,
-                tau_s: tau,
-                value: v.sqrt(),
-                lo: lo.sqrt(),
-                hi: hi.sqrt(),
-                slope,
-            });
+    for (term, tau, slope) in [
+        (Term::RandomWalk, 1.0, -0.5),
+        (Term::RateRandomWalk, 3.0, 0.5),
+    ] {
+        if let Some(r) = slope_line(dev, term, tau, slope) {
+            out.push(r);
         }
     }
     if let Some(i) = minimum(dev) {
@@ -955,6 +1009,42 @@ mod tests {
         let b_var = FLICKER_PLATEAU * b * b;
         let old = 3.66e-11 * 154.2 / chi2_quantile(0.005, 154.2);
         assert!(b_var > old && b_var < bound, "{b_var} {old} {bound}");
+    }
+
+    /// N = 0.1 and K = 1e-3 (crossing at τ ≈ 173 s): σ(3 s) is N's (slope −½), so K is read
+    /// from its +½ line through the long τ where K rules, not as σ(3 s), 57× K; N stays at 1 s.
+    #[test]
+    fn n_and_k_are_read_from_their_slope_lines() {
+        use crate::avar::Statistic;
+        let ms: Vec<u64> = (0..21).map(|k| 1u64 << k).collect();
+        let tau: Vec<f64> = ms.iter().map(|&m| m as f64 / 100.0).collect();
+        let (n, k) = (0.1f64, 1e-3f64);
+        let variance: Vec<f64> = tau.iter().map(|t| n * n / t + k * k * t / 3.0).collect();
+        let dev = Deviations {
+            statistic: Statistic::Oadev,
+            rate_hz: 100.0,
+            m: ms.clone(),
+            tau_s: tau,
+            variance: variance.clone(),
+            n_terms: ms.iter().map(|_| 100).collect(),
+            alpha: vec![0; ms.len()],
+            edf: vec![10.0; ms.len()],
+            variance_lo: variance.iter().map(|v| 0.8 * v).collect(),
+            variance_hi: variance.iter().map(|v| 1.25 * v).collect(),
+            confidence: 0.6827,
+        };
+        let r = read_offs(&dev);
+        let get = |t: Term| *r.iter().find(|x| x.term == t).unwrap();
+        let rn = get(Term::RandomWalk);
+        assert_eq!(rn.tau_s, 1.0);
+        assert!((rn.value / n - 1.0).abs() < 1e-3, "{rn:?}");
+        let rk = get(Term::RateRandomWalk);
+        assert!(
+            rk.tau_s > 1000.0 && (rk.slope - 0.5).abs() <= SLOPE_TOLERANCE,
+            "{rk:?}"
+        );
+        assert!((rk.value / k - 1.0).abs() < 0.1, "{rk:?}");
+        assert!(rk.lo < rk.value && rk.value < rk.hi);
     }
 
     fn fit(domain: Domain, estimates: Vec<TermEstimate>, upper: Vec<(Term, f64)>) -> NoiseFit {

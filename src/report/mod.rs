@@ -30,7 +30,9 @@ pub use json_layout::write_json as write_json_layout;
 pub use kalibr::imu_yaml;
 pub use model::{analysis_json, coefficients_table, units_of};
 pub use stale::{prune_figures, retire_stale_folders, EARLIER_RUNS};
-pub use summary::{effect_line, ramp_sentence, summary_markdown, warning_line, EffectUnits};
+pub use summary::{
+    effect_line, ramp_sentence, ramp_sentences, summary_markdown, warning_line, EffectUnits,
+};
 pub use table::{Column, Table};
 
 use crate::avar::Deviations;

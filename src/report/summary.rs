@@ -655,6 +655,24 @@ fn errors(f: &ErrorFigures) -> String {
     format!("AV {}; PSD {}", d(&f.allan), d(&f.spectrum))
 }
 
+/// [`ramp_sentence`] of every ramp decision of `a`, and where the base fits' test kept a ramp that
+/// the final model lacks (the loop's effects took its rise in: a temperature coupling, a drift),
+/// that said, so that "kept" does not read as the final answer beside "R not significant".
+pub fn ramp_sentences(a: &ChannelAnalysis) -> String {
+    let mut out: String = a
+        .ramp_decisions()
+        .map(|d| ramp_sentence(d, a.sensor))
+        .collect();
+    let kept = a
+        .ramp_decisions()
+        .last()
+        .is_some_and(|d| d.action == RampAction::Kept);
+    if kept && a.combined.get(Term::RateRamp).is_none() {
+        out.push_str(" The final model has no ramp: the effects the loop added took its rise in.");
+    }
+    out
+}
+
 /// What the series' test of a rate ramp decided ([`crate::effects::ramp`]), as a sentence (with
 /// a leading space: it follows the channel's loop line in summary.md).
 pub fn ramp_sentence(d: &RampDecision, sensor: Sensor) -> String {
@@ -701,10 +719,7 @@ fn loop_section(out: &mut String, recording: &Recording, analysis: &[ChannelAnal
         );
     }
     for a in analysis {
-        let ramp: String = a
-            .ramp_decisions()
-            .map(|d| ramp_sentence(d, a.sensor))
-            .collect();
+        let ramp = ramp_sentences(a);
         let Some(l) = &a.residual_loop else {
             // The base fits' ramp decision stands without a loop too.
             if !ramp.is_empty() {
