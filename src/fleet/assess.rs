@@ -163,6 +163,15 @@ pub fn show(spec: &Spec, sensor: Sensor, term: Term, value: f64) -> String {
     format!("{} {}", crate::report::sig4(u.from_si(value)), u.pretty())
 }
 
+/// Whether the quality screen doubts what a channel's numbers mean (stuck, frozen for a while,
+/// saturated, gravity in another unit, too few levels, an output grid too coarse: any verdict
+/// but `no_unit`). Such a channel is flagged for it and is scored against its siblings, but does
+/// not shape the fleet's median and spread: a gyro frozen for 60 % of its record, and three
+/// accelerometers read in g as m/s² (N at 0.09× the fleet), had joined them.
+fn suspect(r: &ChannelRecord) -> bool {
+    r.quality.iter().any(|q| q != "no_unit")
+}
+
 /// Judges every record. Rows are ordered by relative path, key and channel position, so that the
 /// table does not depend on how the run was sharded.
 pub fn assess(mut records: Vec<ChannelRecord>, spec: &Spec) -> Fleet {
@@ -181,7 +190,7 @@ pub fn assess(mut records: Vec<ChannelRecord>, spec: &Spec) -> Fleet {
             let logs: Vec<f64> = records
                 .iter()
                 .filter(ok)
-                .filter(|r| r.kind == Some(sensor))
+                .filter(|r| r.kind == Some(sensor) && !suspect(r))
                 .map(|r| r.term(term))
                 .filter(|t| t.determined())
                 .filter_map(|t| t.value)
@@ -370,6 +379,31 @@ mod tests {
         r.effects_detail = effects.iter().map(|s| format!("{s} detail")).collect();
         r.effects_delta_bic = vec![-100.0; effects.len()];
         r
+    }
+
+    /// Channels the quality screen doubts (a frozen run, gravity in another unit) are flagged
+    /// for it and scored, but leave the fleet's median and count alone.
+    #[test]
+    fn quality_suspects_do_not_shape_the_fleet() {
+        let n0 = CoefUnit::DegPerSqrtH.to_si(0.15);
+        let mut records: Vec<ChannelRecord> = (0..12)
+            .map(|i| channel(i, n0 * (1.0 + 0.01 * i as f64), &[]))
+            .collect();
+        let clean = assess(records.clone(), &Spec::default());
+        for (i, q) in [(2, "stuck_run"), (5, "gravity_scale"), (8, "possibly_saturated")] {
+            records[i] = channel(i, 0.1 * n0, &[]);
+            records[i].quality = vec![q.into()];
+            records[i].quality_detail = vec![format!("{q} detail")];
+        }
+        let fleet = assess(records, &Spec::default());
+        let n = |f: &Fleet| *f.stats.iter().find(|s| s.term == Term::RandomWalk).unwrap();
+        assert_eq!(n(&fleet).count, 9);
+        let (a, b) = (n(&clean).scale.unwrap(), n(&fleet).scale.unwrap());
+        assert!((a.median - b.median).abs() < 0.02, "{a:?} {b:?}");
+        for i in [2, 5, 8] {
+            let row = &fleet.rows[i];
+            assert!(row.flagged && row.terms[Term::RandomWalk.index()].outlier, "{row:?}");
+        }
     }
 
     #[test]
