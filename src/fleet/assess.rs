@@ -390,7 +390,11 @@ mod tests {
             .map(|i| channel(i, n0 * (1.0 + 0.01 * i as f64), &[]))
             .collect();
         let clean = assess(records.clone(), &Spec::default());
-        for (i, q) in [(2, "stuck_run"), (5, "gravity_scale"), (8, "possibly_saturated")] {
+        for (i, q) in [
+            (2, "stuck_run"),
+            (5, "gravity_scale"),
+            (8, "possibly_saturated"),
+        ] {
             records[i] = channel(i, 0.1 * n0, &[]);
             records[i].quality = vec![q.into()];
             records[i].quality_detail = vec![format!("{q} detail")];
@@ -402,7 +406,10 @@ mod tests {
         assert!((a.median - b.median).abs() < 0.02, "{a:?} {b:?}");
         for i in [2, 5, 8] {
             let row = &fleet.rows[i];
-            assert!(row.flagged && row.terms[Term::RandomWalk.index()].outlier, "{row:?}");
+            assert!(
+                row.flagged && row.terms[Term::RandomWalk.index()].outlier,
+                "{row:?}"
+            );
         }
     }
 

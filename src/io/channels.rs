@@ -212,6 +212,9 @@ pub fn is_sample_type(t: &DataType) -> bool {
 /// unit of one stored as plain numbers is the column's `unit`, `--time-unit`, or the one that
 /// gives a plausible rate (see [`crate::io`]).
 const TIME_NAMES: &[&str] = &[
+    // A ROS topic's CSV export (`rostopic echo -p`) holds both the receive time (`%time`) and the
+    // sensor's stamp: the stamp, which Kalibr uses, is taken where both are.
+    "field.header.stamp",
     "time",
     "timestamp",
     "t",
@@ -224,11 +227,11 @@ const TIME_NAMES: &[&str] = &[
     "timestamp_ns",
     "stamp",
     "%time",
-    "field.header.stamp",
 ];
 
 /// Finds the time column: the one named by `--time-column`, else an Arrow timestamp column, else a
-/// column with one of the [`TIME_NAMES`] (`time`, `timestamp`, `t`, `time_s`, `time_ms`, …).
+/// column with one of the [`TIME_NAMES`] (`time`, `timestamp`, `t`, `time_s`, `time_ms`, …), the
+/// earliest in that list where several are.
 pub fn find_time(
     path: &Path,
     schema: &Schema,
@@ -252,10 +255,17 @@ pub fn find_time(
             .iter()
             .position(|f| matches!(f.data_type(), DataType::Timestamp(..)))
             .or_else(|| {
+                let rank = |name: &str| {
+                    let name = name.to_ascii_lowercase();
+                    TIME_NAMES.iter().position(|t| *t == name)
+                };
                 schema
                     .fields()
                     .iter()
-                    .position(|f| TIME_NAMES.contains(&f.name().to_ascii_lowercase().as_str()))
+                    .enumerate()
+                    .filter_map(|(i, f)| rank(f.name()).map(|r| (r, i)))
+                    .min()
+                    .map(|(_, i)| i)
             }),
     };
     let Some(column) = index else {
