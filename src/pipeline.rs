@@ -272,7 +272,7 @@ pub fn run(
                     },
                     confidence: a.confidence,
                     fit: opts.clone(),
-                    filled_s: quality.filled_stretches(),
+                    filled_s: quality.filled_stretches(recording.rate_hz),
                 }),
                 _ => None,
             };

@@ -70,7 +70,16 @@ pub enum RampAction {
     /// No fit kept R (the Allan curve could not tell it from a random walk) and the corrected
     /// series determines it: R required in the Allan fit ([`FitOptions::required`]).
     Added,
+    /// No fit kept R and the corrected series shows some ramp (p below [`HINT_P`]) but does not
+    /// determine one beside the random walk at the upper end of K's interval: nothing changed,
+    /// reported so that a rise the model reads as K is not silent (a 4-h FOG record with 0.1
+    /// °/h² planted read "K 0.029 °/h/√h (not told from R)" and nothing more).
+    NotAdded,
 }
+
+/// p-value of the series' ramp test below which a ramp not added is still reported
+/// ([`RampAction::NotAdded`]).
+pub const HINT_P: f64 = 0.01;
 
 /// One decision on the rate ramp, for the report.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

@@ -614,7 +614,9 @@ pub fn combine(
             Some(CombinedLimit { term, upper })
         })
         .collect();
-    let read_offs = dev.map(read_offs).unwrap_or_default();
+    let read_offs = dev
+        .map(|d| read_offs(d, fitted_from.unwrap_or(0.0)))
+        .unwrap_or_default();
     if let Some(dev) = dev {
         for t in &terms {
             if let Some((tau, bound)) = allan_bound(dev, t.term) {
@@ -737,9 +739,16 @@ const SLOPE_TOLERANCE: f64 = 0.15;
 /// reads them by hand (IEEE Std 952 Annex C, and allan_variance_ros's fitted lines): at `tau`
 /// itself where the local slope there is the term's, else through the midpoint of the pair of
 /// neighbouring points whose slope is nearest the term's (within [`SLOPE_TOLERANCE`]; nearest
-/// `tau` among equals), else at `tau` with the slope shown. The value at τ = 3 s alone, where N
-/// still rules there, had read K at 15× the fitted value (slope −0.45) on a 1-kHz MEMS gyro.
-fn slope_line(dev: &Deviations, term: Term, tau: f64, slope: f64) -> Option<ReadOff> {
+/// `tau` among equals, both points from `min_tau_s` on), else N at 1 s with the slope shown and
+/// no K: the value at τ = 3 s alone, where N still rules there, had read K at 15× the fitted value
+/// (slope −0.45) on a 1-kHz MEMS gyro, and at 34× the truth on a 20-min one.
+fn slope_line(
+    dev: &Deviations,
+    term: Term,
+    tau: f64,
+    slope: f64,
+    min_tau_s: f64,
+) -> Option<ReadOff> {
     let read = |v: f64, at: f64| v * term.avar_unit(tau) / term.avar_unit(at);
     let (v, lo, hi, local) = at(dev, tau)?;
     let here = ReadOff {
@@ -750,10 +759,14 @@ fn slope_line(dev: &Deviations, term: Term, tau: f64, slope: f64) -> Option<Read
         hi: hi.sqrt(),
         slope: local,
     };
-    if (local - slope).abs() <= SLOPE_TOLERANCE {
+    if (local - slope).abs() <= SLOPE_TOLERANCE && tau >= min_tau_s {
         return Some(here);
     }
-    let usable = |i: usize| dev.variance[i] > 0.0 && dev.variance[i].is_finite();
+    let usable = |i: usize| {
+        dev.variance[i] > 0.0
+            && dev.variance[i].is_finite()
+            && dev.tau_s[i] >= min_tau_s * (1.0 - 1e-9)
+    };
     let best = (0..dev.len().saturating_sub(1))
         .filter(|&i| usable(i) && usable(i + 1))
         .map(|i| {
@@ -772,7 +785,7 @@ fn slope_line(dev: &Deviations, term: Term, tau: f64, slope: f64) -> Option<Read
                 .unwrap_or(std::cmp::Ordering::Equal)
         });
     let Some((i, s)) = best else {
-        return Some(here);
+        return (term == Term::RandomWalk).then_some(here);
     };
     let mid = (dev.tau_s[i] * dev.tau_s[i + 1]).sqrt();
     let geo = |x: &[f64]| (x[i] * x[i + 1]).sqrt();
@@ -794,13 +807,17 @@ fn minimum(dev: &Deviations) -> Option<usize> {
 }
 
 /// The IEEE read-offs of N, B and K from `dev`.
-pub fn read_offs(dev: &Deviations) -> Vec<ReadOff> {
+///
+/// The slope lines are looked for from `min_tau_s` on (the shortest τ the Allan fit used): below
+/// it a sensor's low-pass bends the curve, and its roll-off passed for K's +½ (K read at 10³–10⁴×
+/// the truth at τ = 0.007 s behind a 40-Hz filter at 200 Hz).
+pub fn read_offs(dev: &Deviations, min_tau_s: f64) -> Vec<ReadOff> {
     let mut out = Vec::new();
     for (term, tau, slope) in [
         (Term::RandomWalk, 1.0, -0.5),
         (Term::RateRandomWalk, 3.0, 0.5),
     ] {
-        if let Some(r) = slope_line(dev, term, tau, slope) {
+        if let Some(r) = slope_line(dev, term, tau, slope, min_tau_s) {
             out.push(r);
         }
     }
@@ -1034,7 +1051,7 @@ mod tests {
             variance_hi: variance.iter().map(|v| 1.25 * v).collect(),
             confidence: 0.6827,
         };
-        let r = read_offs(&dev);
+        let r = read_offs(&dev, 0.01);
         let get = |t: Term| *r.iter().find(|x| x.term == t).unwrap();
         let rn = get(Term::RandomWalk);
         assert_eq!(rn.tau_s, 1.0);

@@ -180,17 +180,29 @@ impl QualityReport {
             .is_none_or(|c| c.verdicts.iter().all(ChannelVerdict::analysable))
     }
 
-    /// The stretches (start, end; seconds from the first sample) that `--on-gap fill` filled with
-    /// a straight line, as far as the gaps are listed ([`MAX_LISTED_GAPS`]); none under another
-    /// policy.
-    pub fn filled_stretches(&self) -> Vec<(f64, f64)> {
-        if self.gap_policy != GapPolicy::Fill {
-            return Vec::new();
+    /// Where the series the estimators see is no measurement, as far as the gaps are listed
+    /// ([`MAX_LISTED_GAPS`]), in seconds of that series at `rate_hz`: the stretches (start, end)
+    /// that `--on-gap fill` filled with a straight line, or the joins (t, t) where `--on-gap
+    /// ignore` put a gap's two sides next to each other (the sensor's bias moved on in the
+    /// missing time, so the series jumps there: a 30-s gap joined over was read as an
+    /// excursion's end); none under `error`.
+    pub fn filled_stretches(&self, rate_hz: f64) -> Vec<(f64, f64)> {
+        match self.gap_policy {
+            GapPolicy::Fill => self
+                .gaps
+                .iter()
+                .map(|g| (g.after_s, g.after_s + g.duration_s))
+                .collect(),
+            GapPolicy::Ignore if rate_hz > 0.0 => self
+                .gaps
+                .iter()
+                .map(|g| {
+                    let t = g.row as f64 / rate_hz;
+                    (t, t)
+                })
+                .collect(),
+            _ => Vec::new(),
         }
-        self.gaps
-            .iter()
-            .map(|g| (g.after_s, g.after_s + g.duration_s))
-            .collect()
     }
 
     /// One line per channel left out of the noise analysis for want of a unit (`name: why`): a

@@ -685,6 +685,19 @@ pub fn ramp_sentence(d: &RampDecision, sensor: Sensor) -> String {
         RampAction::Kept => "kept, its interval widened to the series'",
         RampAction::Dropped => "dropped, the fits made again without it",
         RampAction::Added => "added, required in the Allan fit (K alone had taken its place)",
+        RampAction::NotAdded => match (d.test.determined(), d.estimate) {
+            (false, _) => {
+                "not added, the series showing a rise it does not tell from the random walk at \
+                 the upper end of K's interval"
+            }
+            (true, None) => {
+                "not added, the series showing a rise it does not tell from an aux channel's \
+                 (a temperature's) fitted beside it"
+            }
+            (true, Some(_)) => {
+                "not added, the series showing a rise that the model with R does not determine"
+            }
+        },
     };
     let t = &d.test;
     let sized = d.estimate.map_or(String::new(), |e| {
@@ -870,6 +883,21 @@ mod tests {
         let line = ramp_sentence(&dropped, Sensor::Gyro);
         assert!(line.contains("dropped") && line.contains("in the recorded series"));
         assert!(ramp_sentence(&dropped, Sensor::Accel).starts_with(" Acceleration ramp dropped"));
+        // Not added: the reason follows from what was determined.
+        let aux = RampDecision {
+            action: RampAction::NotAdded,
+            estimate: None,
+            ..d
+        };
+        assert!(
+            ramp_sentence(&aux, Sensor::Gyro).contains("not added")
+                && ramp_sentence(&aux, Sensor::Gyro).contains("aux channel")
+        );
+        let weak = RampDecision {
+            test: RampTest { p: 4e-3, ..d.test },
+            ..aux
+        };
+        assert!(ramp_sentence(&weak, Sensor::Gyro).contains("upper end of K's interval"));
         assert!(!line.contains("under the model with R"), "{line}");
     }
 

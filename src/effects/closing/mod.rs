@@ -48,7 +48,7 @@ use super::excursion::{
 use super::lines::{find_excess, Excess};
 use super::ramp::{
     ramp_free_coefficients, ramp_null_coefficients, test_ramp_beside, widen_ramp, without_ramp,
-    RampAction, RampDecision, RampTest, TestedSeries,
+    RampAction, RampDecision, RampTest, TestedSeries, HINT_P,
 };
 use super::regression::{IncrementModel, MAX_INCREMENTS};
 use super::residuals::{diagnose, Diagnostics};
@@ -94,7 +94,8 @@ pub struct LoopConfig {
     pub confidence: Confidence,
     pub fit: FitOptions,
     /// Stretches of the series (start, end; seconds from its first sample) that the quality
-    /// screen filled with a straight line (`--on-gap fill`): no level change is claimed at them.
+    /// screen filled with a straight line (`--on-gap fill`), or (t, t) where it joined a gap's
+    /// sides (`--on-gap ignore`): no level change is claimed at them.
     pub filled_s: Vec<(f64, f64)>,
 }
 
@@ -132,7 +133,8 @@ fn on_filled_stretch(effect: &Effect, filled: &[(f64, f64)]) -> Option<String> {
     let span = |t: f64, interval: Option<(f64, f64)>| {
         interval.map_or((t, t), |(lo, hi)| (lo.min(t), hi.max(t)))
     };
-    let (times, boxed): (Vec<(f64, f64)>, Option<(f64, f64)>) = match effect {
+    type Span = (f64, f64);
+    let (times, boxed): (Vec<Span>, Option<Span>) = match effect {
         Effect::Step(s) => (vec![span(s.time_s, s.time_interval_s)], None),
         Effect::Excursion(e) => (
             vec![
@@ -153,10 +155,17 @@ fn on_filled_stretch(effect: &Effect, filled: &[(f64, f64)]) -> Option<String> {
         });
         near || covers
     })?;
-    Some(format!(
-        "not proposed: at the gap filled with a straight line from {a:.3} s to {b:.3} s \
-         (--on-gap fill), which is no measurement"
-    ))
+    Some(if a == b {
+        format!(
+            "not proposed: at the gap joined over at {a:.3} s (--on-gap ignore), where the \
+             series jumps by what the sensor did in the missing time"
+        )
+    } else {
+        format!(
+            "not proposed: at the gap filled with a straight line from {a:.3} s to {b:.3} s \
+             (--on-gap fill), which is no measurement"
+        )
+    })
 }
 
 /// A channel that may explain part of the signal (temperature, any aux channel).
@@ -755,14 +764,21 @@ fn run_loop(
     // required where the corrected series determines it: only now, once the loop had its chance
     // to explain a slope as a warm-up, a coupling or a step (asked of the recorded series before
     // the loop, the sample's gyro_z got a ramp that way).
-    let decided = ramp_gone(&state, fs, cfg).or_else(|| ramp_found(&state, fs, aux, cfg));
+    let decided = ramp_gone(&state, fs, cfg)
+        .map(|end| RampCheck::Changed(Box::new(end)))
+        .or_else(|| ramp_found(&state, fs, aux, cfg));
     let end_cfg;
     let cfg = match decided {
-        Some((decision, next, allan, spectrum)) => {
+        Some(RampCheck::Changed(end)) => {
+            let (decision, next, allan, spectrum) = *end;
             (state.allan, state.spectrum) = (allan, spectrum);
             end_cfg = next;
             end_ramp = Some(decision);
             &end_cfg
+        }
+        Some(RampCheck::Unchanged(decision)) => {
+            end_ramp = Some(decision);
+            cfg
         }
         None => cfg,
     };
@@ -858,6 +874,13 @@ fn owned<'a, 'b>(y: &'b mut Cow<'a, [f64]>) -> &'b mut Vec<f64> {
 /// The loop's last word on the rate ramp: the decision, the configuration from here on, both fits.
 type RampEnd = (RampDecision, LoopConfig, Option<NoiseFit>, Option<NoiseFit>);
 
+/// A ramp check that changed the model, or one reported without changing it
+/// ([`RampAction::NotAdded`]).
+enum RampCheck {
+    Changed(Box<RampEnd>),
+    Unchanged(RampDecision),
+}
+
 /// The series' test of a ramp under the final model without R (`model`, with the loop's
 /// stochastic effect in its noise: a Gauss–Markov process the loop admitted is slow noise the
 /// ramp must stand out from).
@@ -923,7 +946,12 @@ fn ramp_gone(state: &State, fs: f64, cfg: &LoopConfig) -> Option<RampEnd> {
 /// was read as a ramp in 1 of the 24 records of the validation's 5e-5 rad/s/°C row whose
 /// coupling the loop did not find. Where a ramp and a temperature's rise cannot be told apart,
 /// neither is claimed.
-fn ramp_found(state: &State, fs: f64, aux: &[AuxSeries<'_>], cfg: &LoopConfig) -> Option<RampEnd> {
+fn ramp_found(
+    state: &State,
+    fs: f64,
+    aux: &[AuxSeries<'_>],
+    cfg: &LoopConfig,
+) -> Option<RampCheck> {
     let allowed = cfg.fit.terms.contains(&Term::RateRamp);
     if !allowed || keeps_ramp(&state.allan) || keeps_ramp(&state.spectrum) {
         return None;
@@ -931,27 +959,42 @@ fn ramp_found(state: &State, fs: f64, aux: &[AuxSeries<'_>], cfg: &LoopConfig) -
     let model = state.allan.as_ref()?;
     let null = ramp_null_coefficients(model);
     let test = test_final(state, fs, model, null)?;
+    // Why it is not added shows in the decision: the test not determined (K's wander), the test
+    // determined without an estimate (an aux channel's rise), or the estimate under the model
+    // with R not determined.
+    let not_added = |estimate: Option<RampTest>| {
+        (test.p < HINT_P).then_some(RampCheck::Unchanged(RampDecision {
+            series: TestedSeries::Corrected,
+            action: RampAction::NotAdded,
+            test,
+            estimate,
+        }))
+    };
     if !test.determined() {
-        return None;
+        return not_added(None);
     }
     for a in aux {
         let beside = test_beside(state, fs, model, &null, Some(a.samples));
         if !beside.is_some_and(|t| t.determined()) {
-            return None;
+            return not_added(None);
         }
     }
     let mut required = cfg.clone();
     required.fit.required.push(Term::RateRamp);
     let shape = state.stochastic.as_ref().map(Stochastic::shape);
     let (allan, spectrum) = fits(&state.dev, &state.psd, &state.binned, &required, shape);
-    let with_ramp = allan.as_ref().filter(|f| f.get(Term::RateRamp).is_some())?;
+    let Some(with_ramp) = allan.as_ref().filter(|f| f.get(Term::RateRamp).is_some()) else {
+        return not_added(None);
+    };
     // Sized under the model with R, as where the base fits kept it (see `band`); whose left-out
     // K enters at its upper limit: the ramp must stand out from that noise too. Weighed against
     // the model without R alone, 3 of 200 clean 2-h records got a ramp where the Allan fit read K
     // at 0.30–0.56× the truth (t 4.5–6.1); under the model with R their t was 1.5–3.5.
-    let estimate = test_final(state, fs, with_ramp, ramp_free_coefficients(with_ramp))?;
+    let Some(estimate) = test_final(state, fs, with_ramp, ramp_free_coefficients(with_ramp)) else {
+        return not_added(None);
+    };
     if !estimate.determined() {
-        return None;
+        return not_added(Some(estimate));
     }
     let decision = RampDecision {
         series: TestedSeries::Corrected,
@@ -959,7 +1002,9 @@ fn ramp_found(state: &State, fs: f64, aux: &[AuxSeries<'_>], cfg: &LoopConfig) -
         test,
         estimate: Some(estimate),
     };
-    Some((decision, required, allan, spectrum))
+    Some(RampCheck::Changed(Box::new((
+        decision, required, allan, spectrum,
+    ))))
 }
 
 /// The loop's report and the final fits (base terms and the stochastic effect, on the corrected
@@ -1347,5 +1392,10 @@ mod tests {
         assert!(on_filled_stretch(&excursion(2800.0, 2998.0), &filled).is_none());
         // An end whose interval reaches within the margin.
         assert!(on_filled_stretch(&excursion(2800.0, 2999.5), &filled).is_some());
+        // A gap joined over (`--on-gap ignore`): an end at the join is the join's.
+        let joined = [(979.0, 979.0)];
+        let why = on_filled_stretch(&excursion(388.1, 979.1), &joined).unwrap();
+        assert!(why.contains("joined over"), "{why}");
+        assert!(on_filled_stretch(&excursion(388.1, 960.0), &joined).is_none());
     }
 }

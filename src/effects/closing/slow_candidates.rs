@@ -24,6 +24,14 @@ pub(super) fn allan_without(
     fit_avar_with(&dev, &cfg.fit, shape).ok()
 }
 
+/// How [`refined`] treats an effect: `remove` takes it out of a series; `iterate` (its p-value)
+/// asks for further passes; `k` is the K it is weighed against.
+pub(super) struct Refinement<'a, T> {
+    pub remove: &'a dyn Fn(&mut Vec<f64>, &T),
+    pub iterate: Option<&'a dyn Fn(&T) -> f64>,
+    pub k: NoiseK,
+}
+
 /// A noise density, one-sided, units²/Hz.
 pub(super) type Density<'a> = &'a dyn Fn(f64) -> f64;
 
@@ -58,10 +66,9 @@ pub(super) fn refined<T>(
     cfg: &LoopConfig,
     first: T,
     estimate: &dyn Fn(Density<'_>) -> Option<T>,
-    remove: &dyn Fn(&mut Vec<f64>, &T),
-    iterate: Option<&dyn Fn(&T) -> f64>,
-    k: NoiseK,
+    how: Refinement<'_, T>,
 ) -> T {
+    let Refinement { remove, iterate, k } = how;
     let mut current = first;
     let passes = if iterate.is_some() { REFINE_PASSES } else { 1 };
     for pass in 0..passes {
@@ -121,9 +128,11 @@ pub(super) fn slow_candidates<'a>(
                 cfg,
                 first,
                 &estimate,
-                &|v, c| remove_coupling(v, a.samples, c),
-                None,
-                NoiseK::Fitted,
+                Refinement {
+                    remove: &|v, c| remove_coupling(v, a.samples, c),
+                    iterate: None,
+                    k: NoiseK::Fitted,
+                },
             )
         } else {
             first
@@ -339,9 +348,11 @@ pub(super) fn slow_candidate<T: SlowEffect>(
             cfg,
             first,
             estimate,
-            &|v, e: &T| e.remove(v, fs),
-            T::ITERATE.then_some(&|e: &T| e.p_value()),
-            T::NOISE_K,
+            Refinement {
+                remove: &|v, e: &T| e.remove(v, fs),
+                iterate: T::ITERATE.then_some(&|e: &T| e.p_value()),
+                k: T::NOISE_K,
+            },
         )
     } else {
         first
