@@ -104,97 +104,61 @@ pub fn coefficients_table(results: &[&FileResult]) -> Table {
     let mut nums: [Vec<f64>; 7] = Default::default();
     for r in results {
         for a in r.analysis.iter().flatten() {
+            // One row: its fit, term and status, then (value, lo, hi) in SI, in the datasheet
+            // unit, and the fit's χ²/dof.
+            let mut push = |fit: &str, term: Term, status: &str, v: [f64; 3], chi2: f64| {
+                let [_, datasheet, _] = units_of(a.sensor, term);
+                let text = [
+                    file_name(&r.recording),
+                    a.channel.clone(),
+                    format!("{:?}", a.sensor).to_lowercase(),
+                    fit.to_string(),
+                    term.symbol().to_string(),
+                    status.to_string(),
+                    datasheet.label(),
+                ];
+                for (c, x) in cols.iter_mut().zip(text) {
+                    c.push(x);
+                }
+                let row = [
+                    v[0],
+                    v[1],
+                    v[2],
+                    datasheet.from_si(v[0]),
+                    datasheet.from_si(v[1]),
+                    datasheet.from_si(v[2]),
+                    chi2,
+                ];
+                for (c, x) in nums.iter_mut().zip(row) {
+                    c.push(x);
+                }
+            };
             // The one answer per term first; the per-domain rows below are its evidence.
             for t in &a.combined.terms {
-                let [_, datasheet, _] = units_of(a.sensor, t.term);
-                let text = [
-                    file_name(&r.recording),
-                    a.channel.clone(),
-                    format!("{:?}", a.sensor).to_lowercase(),
-                    "combined".to_string(),
-                    t.term.symbol().to_string(),
-                    if t.hull { "kept_fits_disagree" } else { "kept" }.to_string(),
-                    datasheet.label(),
-                ];
-                for (c, x) in cols.iter_mut().zip(text) {
-                    c.push(x);
-                }
-                let row = [
-                    t.value,
-                    t.lo,
-                    t.hi,
-                    datasheet.from_si(t.value),
-                    datasheet.from_si(t.lo),
-                    datasheet.from_si(t.hi),
-                    f64::NAN,
-                ];
-                for (c, x) in nums.iter_mut().zip(row) {
-                    c.push(x);
-                }
+                let status = if t.hull { "kept_fits_disagree" } else { "kept" };
+                push("combined", t.term, status, [t.value, t.lo, t.hi], f64::NAN);
             }
             for l in &a.combined.limits {
-                let [_, datasheet, _] = units_of(a.sensor, l.term);
-                let text = [
-                    file_name(&r.recording),
-                    a.channel.clone(),
-                    format!("{:?}", a.sensor).to_lowercase(),
-                    "combined".to_string(),
-                    l.term.symbol().to_string(),
-                    "upper_limit".to_string(),
-                    datasheet.label(),
-                ];
-                for (c, x) in cols.iter_mut().zip(text) {
-                    c.push(x);
-                }
-                let row = [
+                push(
+                    "combined",
+                    l.term,
+                    "upper_limit",
+                    [f64::NAN, 0.0, l.upper],
                     f64::NAN,
-                    0.0,
-                    l.upper,
-                    f64::NAN,
-                    0.0,
-                    datasheet.from_si(l.upper),
-                    f64::NAN,
-                ];
-                for (c, x) in nums.iter_mut().zip(row) {
-                    c.push(x);
-                }
+                );
             }
             for (domain, fit) in fits(a) {
                 let Some(fit) = fit else { continue };
                 let kept = fit
                     .estimates
                     .iter()
-                    .map(|e| (e.term, "kept", e.value, e.lo, e.hi));
+                    .map(|e| (e.term, "kept", [e.value, e.lo, e.hi]));
                 let absent = fit
                     .upper_limits
                     .iter()
-                    .map(|u| (u.term, "upper_limit", f64::NAN, 0.0, u.upper));
-                for (term, status, value, lo, hi) in kept.chain(absent) {
-                    let [_, datasheet, _] = units_of(a.sensor, term);
-                    let text = [
-                        file_name(&r.recording),
-                        a.channel.clone(),
-                        format!("{:?}", a.sensor).to_lowercase(),
-                        domain.to_string(),
-                        term.symbol().to_string(),
-                        status.to_string(),
-                        datasheet.label(),
-                    ];
-                    for (c, t) in cols.iter_mut().zip(text) {
-                        c.push(t);
-                    }
-                    let row = [
-                        value,
-                        lo,
-                        hi,
-                        datasheet.from_si(value),
-                        datasheet.from_si(lo),
-                        datasheet.from_si(hi),
-                        fit.chi2_per_dof(),
-                    ];
-                    for (c, x) in nums.iter_mut().zip(row) {
-                        c.push(x);
-                    }
+                    .map(|u| (u.term, "upper_limit", [f64::NAN, 0.0, u.upper]));
+                for (term, status, v) in kept.chain(absent) {
+                    push(domain, term, status, v, fit.chi2_per_dof());
                 }
             }
         }
