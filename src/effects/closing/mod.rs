@@ -499,9 +499,11 @@ pub(super) enum NoiseK {
     /// slow regressor against a random walk, and where K read low the walk's wander looked like
     /// one: at K's estimate, clean simulated 20-min accelerometers whose random walk rules from
     /// 20 s on had a step or excursion added to 8 of 600 channels (ΔBIC −6.4 to −13; the worst
-    /// read K at 0.2× the truth, [0, 0.46×]), none under the guard. Not for drifts and
-    /// couplings: guarded too, K took in more of a 100-°/h warm-up, found then in 41 of 50
-    /// records instead of 49, and a 5e-5 rad/s/°C coupling in 16 of 50 instead of 21.
+    /// read K at 0.2× the truth, [0, 0.46×]), none under the guard. Also for the parabola among
+    /// the drifts (a random walk's wander over a record looks like one). Not for the settling
+    /// exponential and the couplings: guarded too, K took in more of a 100-°/h warm-up, found
+    /// then in 41 of 50 records instead of 49, and a 5e-5 rad/s/°C coupling in 16 of 50 instead
+    /// of 21.
     Guarded,
 }
 
