@@ -554,7 +554,16 @@ pub fn select_channels(
                 columns: column_list(schema),
             });
         }
-        numeric.clone()
+        let measured: Vec<usize> = numeric
+            .iter()
+            .copied()
+            .filter(|&i| !ros_bookkeeping(schema.field(i).name()))
+            .collect();
+        if measured.is_empty() {
+            numeric.clone()
+        } else {
+            measured
+        }
     } else {
         overrides
             .channels
@@ -585,6 +594,36 @@ pub fn select_channels(
         .collect()
 }
 
+/// A column of a ROS topic's CSV export (`rostopic echo -p` of a sensor_msgs/Imu) that holds no
+/// measurement: the receive time `%time` (where the stamp is the time column), the sequence
+/// number, the orientation estimate and the covariance matrices. Left out unless `--channels`
+/// names them (each had been analysed as an aux channel).
+fn ros_bookkeeping(name: &str) -> bool {
+    let n = name.to_ascii_lowercase();
+    n == "field.header.seq"
+        || n == "%time"
+        || n.starts_with("field.orientation")
+        || (n.starts_with("field.") && n.contains("_covariance"))
+}
+
+/// The unit sensor_msgs/Imu defines for a column of its CSV export: rad/s for
+/// `field.angular_velocity.*`, m/s² for `field.linear_acceleration.*` (REP 103), as the MCAP
+/// reader applies it.
+fn ros_unit(name: &str) -> Option<ScaledUnit> {
+    let n = name.to_ascii_lowercase();
+    let axis = |prefix: &str| {
+        n.strip_prefix(prefix)
+            .is_some_and(|a| matches!(a, "x" | "y" | "z"))
+    };
+    if axis("field.angular_velocity.") {
+        Some(Unit::RadPerS.into())
+    } else if axis("field.linear_acceleration.") {
+        Some(Unit::MPerS2.into())
+    } else {
+        None
+    }
+}
+
 fn channel_spec(
     path: &Path,
     field: &Field,
@@ -603,7 +642,7 @@ fn channel_spec(
         Some(u) => Some(u),
         None => match meta.get("unit") {
             Some(text) => Some(text.parse::<ScaledUnit>().map_err(|e| bad(e.to_string()))?),
-            None => None,
+            None => ros_unit(&name),
         },
     };
     let unit = scaled.map(|s| s.unit);

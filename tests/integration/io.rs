@@ -766,15 +766,16 @@ fn malformed_csv_records_name_row_and_line() {
     let r = io::open(&path, &OpenOptions::default()).unwrap();
     assert_eq!(r.rate_hz, 50.0);
     assert_eq!(r.time.as_ref().map(|t| t.name.as_str()), Some("time"));
-    // A ROS topic's CSV export: the sensor's stamp, not the receive time `%time` before it.
-    let mut text = String::from("%time,field.header.stamp,g [rad/s]\n");
+    // A ROS topic's CSV export: the sensor's stamp, not the receive time `%time` before it; the
+    // units sensor_msgs/Imu defines; no sequence number, orientation or covariance as channels.
+    let mut text = String::from(
+        "%time,field.header.seq,field.header.stamp,field.orientation.x,\
+         field.orientation_covariance0,field.angular_velocity.x,field.linear_acceleration.z\n",
+    );
     for i in 0..200u64 {
         let stamp = 1_700_000_000_000_000_000u64 + i * 20_000_000;
-        text.push_str(&format!(
-            "{},{stamp},{}\n",
-            stamp + 1_000_000 + (i % 3) * 3_000_000,
-            i % 7
-        ));
+        let received = stamp + 1_000_000 + (i % 3) * 3_000_000;
+        text.push_str(&format!("{received},{i},{stamp},0.1,0.0,{},9.8\n", i % 7));
     }
     std::fs::write(&path, text).unwrap();
     let r = io::open(&path, &OpenOptions::default()).unwrap();
@@ -783,6 +784,18 @@ fn malformed_csv_records_name_row_and_line() {
         Some("field.header.stamp")
     );
     assert_eq!(r.rate_hz, 50.0);
+    let got: Vec<(&str, imunoise::units::Kind)> = r
+        .channels
+        .iter()
+        .map(|c| (c.name.as_str(), c.kind))
+        .collect();
+    assert_eq!(
+        got,
+        [
+            ("field.angular_velocity.x", imunoise::units::Kind::Gyro),
+            ("field.linear_acceleration.z", imunoise::units::Kind::Accel)
+        ]
+    );
     // ... and before a `#` preamble, which is still a comment that gives the rate.
     let mut bytes = "\u{feff}# sample_rate_hz: 40\ng [rad/s]\n"
         .as_bytes()
