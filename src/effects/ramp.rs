@@ -24,7 +24,7 @@
 
 use serde::Serialize;
 
-use crate::model::{Coefficients, FitOptions, NoiseFit, Term};
+use crate::model::{Coefficients, FitOptions, NoiseFit, Term, TermEstimate};
 
 use super::regression::{IncrementModel, MAX_INCREMENTS};
 use super::slow::DETECTION_P;
@@ -115,13 +115,16 @@ pub fn test_ramp(y: &[f64], fs: f64, model: &NoiseFit) -> Option<RampTest> {
 pub fn ramp_null_coefficients(fit: &NoiseFit) -> Coefficients {
     let mut c = ramp_free_coefficients(fit);
     if let Some(k) = fit.get(Term::RateRandomWalk) {
-        let z = crate::stats::norm_isf((1.0 - fit.confidence) / 2.0);
-        c.set(
-            Term::RateRandomWalk,
-            k.value + (k.hi - k.value).max(0.0) / z,
-        );
+        c.set(Term::RateRandomWalk, one_sigma_upper(fit, k));
     }
     c
+}
+
+/// The upper end of `e`'s one-sigma interval, from its interval at `fit`'s confidence (the
+/// distance to the upper end over its z).
+pub fn one_sigma_upper(fit: &NoiseFit, e: &TermEstimate) -> f64 {
+    let z = crate::stats::norm_isf((1.0 - fit.confidence) / 2.0);
+    e.value + (e.hi - e.value).max(0.0) / z
 }
 
 /// The ramp of `y` (at `fs`) under the one-sided noise `density` (without a ramp; for a model

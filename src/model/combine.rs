@@ -41,7 +41,7 @@ use serde::Serialize;
 use crate::avar::Deviations;
 use crate::stats::{chi2_quantile, normal_quantile};
 
-use super::{Domain, NoiseFit, Term, TermEstimate, FLICKER_PLATEAU};
+use super::{Domain, NoiseFit, Term, TermEstimate, UpperLimit, FLICKER_PLATEAU};
 
 /// A coefficient's one answer.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -348,16 +348,9 @@ pub struct Combined {
     pub terms: Vec<CombinedTerm>,
     /// The terms without a combined estimate: the largest value the fits and the measured Allan
     /// curve allow ([`upper_limit`], within [`allan_cap`]), at the fits' confidence.
-    pub limits: Vec<CombinedLimit>,
+    pub limits: Vec<UpperLimit>,
     pub read_offs: Vec<ReadOff>,
     pub warnings: Vec<FitWarning>,
-}
-
-/// An upper limit of a term that has no combined estimate.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct CombinedLimit {
-    pub term: Term,
-    pub upper: f64,
 }
 
 impl Combined {
@@ -611,7 +604,7 @@ pub fn combine(
         .filter_map(|term| {
             let upper = upper_limit(allan_fit, spectrum_fit, term)?;
             let upper = cap(term).map_or(upper, |c| upper.min(c));
-            Some(CombinedLimit { term, upper })
+            Some(UpperLimit { term, upper })
         })
         .collect();
     let read_offs = dev
@@ -1069,6 +1062,32 @@ mod tests {
         crate::model::result::fit_for_tests(domain, estimates, upper)
     }
 
+    /// The octave OADEV (1σ) of 100 000 white samples of σ = 1 at 100 Hz (N = 0.1).
+    fn white_oadev(seed: u64) -> Deviations {
+        use crate::avar::{compute, Confidence, Statistic, TauGrid};
+        let y = crate::sim::rng::Rng::new(seed).gauss_vec(100_000);
+        compute(
+            &y,
+            100.0,
+            &TauGrid::Octave,
+            Statistic::Oadev,
+            Confidence::OneSigma,
+        )
+        .unwrap()
+    }
+
+    /// `f` as an Allan fit that used the curve from τ = 0.01 s on (one point there).
+    fn fitted_from_the_start(mut f: NoiseFit) -> NoiseFit {
+        f.points = vec![crate::model::FitPoint {
+            x: 0.01,
+            value: 1.0,
+            model: 1.0,
+            edf: 1.0,
+            z: 0.0,
+        }];
+        f
+    }
+
     /// B kept by the Allan fit (its home), bounded a little below its interval by the spectrum:
     /// the Allan interval stands. Kept by the spectrum and bounded so by the Allan fit, it may
     /// not be there at all: the interval starts at 0. Bounded far below (beyond both fits'
@@ -1099,18 +1118,9 @@ mod tests {
     /// still holds K = 0's neighbourhood and N's truth is never cut.
     #[test]
     fn the_allan_curve_caps_an_upper_end() {
-        use crate::avar::{compute, Confidence, Statistic, TauGrid};
         let mut below = 0;
         for seed in 0..40 {
-            let y = crate::sim::rng::Rng::new(9_100 + seed).gauss_vec(100_000);
-            let dev = compute(
-                &y,
-                100.0,
-                &TauGrid::Octave,
-                Statistic::Oadev,
-                Confidence::OneSigma,
-            )
-            .unwrap();
+            let dev = white_oadev(9_100 + seed);
             let bounds = allan_bounds(&dev, 0.95, 0.01);
             let n_cap = allan_cap(&bounds, Term::RandomWalk).unwrap().0;
             below += usize::from(n_cap < 0.1);
@@ -1121,18 +1131,11 @@ mod tests {
             // A combined K with a wild upper end is cut to the cap, keeping its value.
             let mut k = est(Term::RateRandomWalk, 1e-3, 0.5);
             k.hi = 1e3;
-            let mut a = fit(
+            let a = fitted_from_the_start(fit(
                 Domain::Allan,
                 vec![est(Term::RandomWalk, 0.1, 0.01), k],
                 vec![],
-            );
-            a.points = vec![crate::model::FitPoint {
-                x: 0.01,
-                value: 1.0,
-                model: 1.0,
-                edf: 1.0,
-                z: 0.0,
-            }];
+            ));
             let c = combine(Some(&a), None, Some(&dev));
             let got = c.get(Term::RateRandomWalk).unwrap();
             let (k_cap_99, _) = allan_cap(
@@ -1157,33 +1160,14 @@ mod tests {
     /// has no answer; and an upper limit is cut to the curve's.
     #[test]
     fn the_allan_curve_rules_estimates_out() {
-        use crate::avar::{compute, Confidence, Statistic, TauGrid};
-        let y = crate::sim::rng::Rng::new(9_300).gauss_vec(100_000);
-        let dev = compute(
-            &y,
-            100.0,
-            &TauGrid::Octave,
-            Statistic::Oadev,
-            Confidence::OneSigma,
-        )
-        .unwrap();
+        let dev = white_oadev(9_300);
         let ambiguous = |mut e: TermEstimate| {
             e.lo = 0.0;
             e.ambiguous_with = Some(Term::BiasInstability);
             e
         };
         let k = Term::RateRandomWalk;
-        let with_points = |mut f: NoiseFit| {
-            f.points = vec![crate::model::FitPoint {
-                x: 0.01,
-                value: 1.0,
-                model: 1.0,
-                edf: 1.0,
-                z: 0.0,
-            }];
-            f
-        };
-        let a = with_points(fit(
+        let a = fitted_from_the_start(fit(
             Domain::Allan,
             vec![
                 est(Term::RandomWalk, 0.1, 0.01),
@@ -1226,7 +1210,7 @@ mod tests {
         assert_eq!(c.limit(Term::BiasInstability), Some(b_cap));
         assert!(b_cap < 1.0, "{b_cap}");
         // The Allan fit alone with K ambiguous beyond the curve: no answer, a limit instead.
-        let a = with_points(fit(
+        let a = fitted_from_the_start(fit(
             Domain::Allan,
             vec![
                 est(Term::RandomWalk, 0.1, 0.01),
@@ -1239,7 +1223,7 @@ mod tests {
         let limit = c.limit(k).unwrap();
         assert!(limit < 0.5, "{limit}");
         // Kept clearly beyond it: kept, with a warning.
-        let a = with_points(fit(
+        let a = fitted_from_the_start(fit(
             Domain::Allan,
             vec![est(Term::RandomWalk, 0.1, 0.01), est(k, 0.5, 0.6)],
             vec![],

@@ -443,3 +443,51 @@ fn a_ramp_kept_without_the_loop_is_reported() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("ramp  gyro_x:"), "{stderr}");
 }
+
+/// imu.yaml with a clipped axis: accel_z (5× the others' noise, clipped at +1σ) is listed with its
+/// quality verdict and is not the sensor's worst axis, and no value in the file is `inf`.
+#[test]
+fn a_clipped_axis_is_not_the_worst_axis_of_imu_yaml() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("imu.arrow");
+    let n = 60_000;
+    let (x, y) = (noise(n, 31), noise(n, 32));
+    let z: Vec<f64> = noise(n, 33)
+        .iter()
+        .map(|v| 9.81 + (0.05 * v).min(0.05))
+        .collect();
+    let cols = [
+        f64_col(
+            "accel_x",
+            x.iter().map(|v| 0.01 * v).collect(),
+            Some("m/s^2"),
+        ),
+        f64_col(
+            "accel_y",
+            y.iter().map(|v| 0.01 * v).collect(),
+            Some("m/s^2"),
+        ),
+        f64_col("accel_z", z, Some("m/s^2")),
+    ];
+    write_ipc_file(&file, &batch(&cols, Some(100.0)), 8192);
+    run_ok(
+        &[
+            "analyze",
+            file.to_str().unwrap(),
+            "-o",
+            "out",
+            "--backend",
+            "cpu",
+        ],
+        dir.path(),
+    );
+    let yaml = std::fs::read_to_string(dir.path().join("out/imu/imu.yaml")).unwrap();
+    let key = yaml
+        .lines()
+        .find(|l| l.starts_with("accelerometer_noise_density:"))
+        .unwrap_or_else(|| panic!("{yaml}"));
+    assert!(!key.contains("accel_z"), "{yaml}");
+    let z_line = yaml.lines().find(|l| l.contains("#   accel_z:")).unwrap();
+    assert!(z_line.contains("[quality: possibly saturated"), "{yaml}");
+    assert!(!yaml.to_lowercase().contains("inf "), "{yaml}");
+}

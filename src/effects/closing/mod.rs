@@ -47,8 +47,8 @@ use super::excursion::{
 };
 use super::lines::{find_excess, Excess};
 use super::ramp::{
-    ramp_free_coefficients, ramp_null_coefficients, test_ramp_beside, widen_ramp, without_ramp,
-    RampAction, RampDecision, RampTest, TestedSeries, HINT_P,
+    one_sigma_upper, ramp_free_coefficients, ramp_null_coefficients, test_ramp_beside, widen_ramp,
+    without_ramp, RampAction, RampDecision, RampTest, TestedSeries, HINT_P,
 };
 use super::regression::{IncrementModel, MAX_INCREMENTS};
 use super::residuals::{diagnose, Diagnostics};
@@ -517,15 +517,16 @@ fn noise_density<'a>(
     k: NoiseK,
 ) -> impl Fn(f64) -> f64 + 'a {
     let mut c = ramp_free_coefficients(fit);
-    let undetermined = fit.get(Term::RateRandomWalk).filter(|e| e.lo <= 0.0);
-    if let (NoiseK::Guarded, Some(e)) = (k, undetermined) {
-        let z = crate::stats::norm_isf((1.0 - fit.confidence) / 2.0);
-        c.set(
-            Term::RateRandomWalk,
-            e.value + (e.hi - e.value).max(0.0) / z,
-        );
+    if let (NoiseK::Guarded, Some(e)) = (k, undetermined_k(fit)) {
+        c.set(Term::RateRandomWalk, one_sigma_upper(fit, e));
     }
     move |f| density_of(&c, fit, stochastic, f, fs)
+}
+
+/// K where `fit` kept it with an interval down to 0: the record does not determine it, and
+/// [`NoiseK::Guarded`] raises it.
+fn undetermined_k(fit: &NoiseFit) -> Option<&crate::model::TermEstimate> {
+    fit.get(Term::RateRandomWalk).filter(|e| e.lo <= 0.0)
 }
 
 /// A candidate for this round: its ΔBIC, what it would add, and the evidence.
@@ -963,7 +964,7 @@ fn ramp_found(
     let test = test_final(state, fs, model, null)?;
     // Why it is not added shows in the decision: the test not determined (K's wander), the test
     // determined without an estimate (an aux channel's rise), or the estimate under the model
-    // with R not determined.
+    // with R not determined. Where the fit with R fails, nothing is said (no reason is known).
     let not_added = |estimate: Option<RampTest>| {
         (test.p < HINT_P).then_some(RampCheck::Unchanged(RampDecision {
             series: TestedSeries::Corrected,
@@ -985,16 +986,12 @@ fn ramp_found(
     required.fit.required.push(Term::RateRamp);
     let shape = state.stochastic.as_ref().map(Stochastic::shape);
     let (allan, spectrum) = fits(&state.dev, &state.psd, &state.binned, &required, shape);
-    let Some(with_ramp) = allan.as_ref().filter(|f| f.get(Term::RateRamp).is_some()) else {
-        return not_added(None);
-    };
+    let with_ramp = allan.as_ref().filter(|f| f.get(Term::RateRamp).is_some())?;
     // Sized under the model with R, as where the base fits kept it (see `band`); whose left-out
     // K enters at its upper limit: the ramp must stand out from that noise too. Weighed against
     // the model without R alone, 3 of 200 clean 2-h records got a ramp where the Allan fit read K
     // at 0.30–0.56× the truth (t 4.5–6.1); under the model with R their t was 1.5–3.5.
-    let Some(estimate) = test_final(state, fs, with_ramp, ramp_free_coefficients(with_ramp)) else {
-        return not_added(None);
-    };
+    let estimate = test_final(state, fs, with_ramp, ramp_free_coefficients(with_ramp))?;
     if !estimate.determined() {
         return not_added(Some(estimate));
     }

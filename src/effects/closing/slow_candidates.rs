@@ -172,7 +172,16 @@ pub(super) fn slow_candidates<'a>(
     // the excursions).
     let increments = IncrementModel::for_series(&density, fs, y, MAX_INCREMENTS);
     let guarded = noise_density(model, stochastic, fs, NoiseK::Guarded);
-    let guarded_increments = IncrementModel::for_series(&guarded, fs, y, MAX_INCREMENTS);
+    // Whitened again only where the guard changes K (the fit kept K with an interval down to 0).
+    let guard_changes_k = undetermined_k(model).is_some();
+    let own_guarded = guard_changes_k
+        .then(|| IncrementModel::for_series(&guarded, fs, y, MAX_INCREMENTS))
+        .flatten();
+    let guarded_increments = if guard_changes_k {
+        &own_guarded
+    } else {
+        &increments
+    };
     // A parabola is what a random walk's wander looks like over a record: weighed against K as
     // fitted where K read low, one was added to clean K-dominated accelerometers (ΔBIC −12 and
     // −20.8); the settling exponential of a warm-up keeps K as fitted (guarded, K took in more of
@@ -187,7 +196,7 @@ pub(super) fn slow_candidates<'a>(
     // leaves the warm-up, and the random walk, in place.
     let drift_of = |shapes: DriftShapes| {
         let whitened = match drift_k(shapes) {
-            NoiseK::Guarded => &guarded_increments,
+            NoiseK::Guarded => guarded_increments,
             NoiseK::Fitted => &increments,
         };
         whitened
@@ -278,7 +287,6 @@ fn explained_by_coupling(
 pub(super) trait SlowEffect: Clone + Send + 'static {
     /// Whether its feasible GLS iterates (see [`refined`]).
     const ITERATE: bool = false;
-
     fn p_value(&self) -> f64;
     fn delta_bic(&self) -> f64;
     fn evidence(&self) -> String;
