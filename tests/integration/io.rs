@@ -711,6 +711,32 @@ fn csv_comment_lines_are_skipped_and_a_preamble_may_give_the_rate() {
     );
 }
 
+/// Defect: a logger's nanosecond epoch stamps (≈ 1.7·10¹⁸) were parsed as f64, whose steps there
+/// are 256 ns, so a 100-Hz CSV export read as 99.9987 Hz. Integers beyond 2⁵³ stay integers: the
+/// rate from the stamps is exact, and a bad stamp still names its row.
+#[test]
+fn nanosecond_epoch_stamps_in_a_csv_keep_their_resolution() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ns.csv");
+    let n = 3000i64;
+    let origin: i64 = 1_700_000_000_123_456_789;
+    let row = |i: i64| format!("{},{}", origin + i * 10_000_000, (i % 7) as f64 * 0.01);
+    write_csv_text(&path, "stamp,gyro_x [deg/s]", (0..n).map(row));
+    let rec = io::open(&path, &OpenOptions::default()).unwrap();
+    assert_eq!(rec.rate_hz, 100.0, "{:?}", rec.rate_from_time_hz);
+    assert_eq!(rec.rate_source, io::RateSource::TimeColumn);
+    let (data, report) = read_all(&path, &Inputs::default()).unwrap();
+    assert_eq!(report.samples_out, n as u64);
+    assert_eq!(report.gap_count, 0);
+    assert_eq!(data[0].len(), n as usize);
+
+    let text = std::fs::read_to_string(&path).unwrap();
+    let bad = format!("\n{},", origin + 2000 * 10_000_000);
+    std::fs::write(&path, text.replacen(&bad, "\n17000000x,", 1)).unwrap();
+    let e = err_of(&path, &Inputs::default());
+    assert_eq!((e.column(), e.row()), (Some("stamp"), Some(2000)), "{e}");
+}
+
 /// Records with the wrong number of fields, bytes that are not UTF-8, a header line that holds
 /// numbers: each names the row and line.
 #[test]

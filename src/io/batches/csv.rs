@@ -8,7 +8,8 @@
 //! Column types are judged on the first [`INFER_ROWS`] records. A column is read as numbers when its
 //! header carries a unit (`gyro_x [deg/s]`) and at least one of its values is a number, or when at
 //! least [`NUMERIC_SHARE`] of its non-empty values are numbers; a column of text throughout (a label)
-//! stays text and is not a channel. Timestamps, dates and booleans keep the type arrow-csv infers.
+//! stays text and is not a channel. Timestamps, dates and booleans keep the type arrow-csv infers, and so
+//! does a column of integers beyond 2⁵³ (nanosecond epoch stamps), which stays `Int64`.
 //! An empty (or blank) cell is a missing sample, NaN, which the quality stage reports under its
 //! `--on-nonfinite` policy; so are `NaN`, `inf` and `-inf`.
 //!
@@ -154,7 +155,7 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
         check_record(path, &bare, &record, row)?;
         for (s, bytes) in stats.iter_mut().zip(&record.fields) {
             // UTF-8 was checked just above.
-            s.add(cell(std::str::from_utf8(bytes).unwrap_or("")));
+            s.add(std::str::from_utf8(bytes).unwrap_or(""));
         }
     }
     drop(scanner);
@@ -187,6 +188,7 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
         .zip(&stats)
         .map(|((f, (name, unit)), s)| {
             let data_type = match f.data_type() {
+                _ if s.wide_integers() => DataType::Int64,
                 t if t.is_numeric() => DataType::Float64,
                 // Empty throughout the first rows: read as numbers, the empty cells are missing samples.
                 DataType::Null => DataType::Float64,
@@ -208,15 +210,36 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
 struct ColumnStats {
     numbers: u64,
     texts: u64,
+    /// Numbers written as integers.
+    integers: u64,
+    /// Whether one of those integers is beyond 2⁵³, where f64 no longer holds every integer.
+    wide_integer: bool,
 }
 
+/// The largest integer below which f64 holds every integer.
+const F64_EXACT_INTEGERS: i64 = 1 << 53;
+
 impl ColumnStats {
-    fn add(&mut self, c: Cell) {
-        match c {
+    fn add(&mut self, text: &str) {
+        match cell(text) {
             Cell::Missing => {}
-            Cell::Number(_) => self.numbers += 1,
+            Cell::Number(_) => {
+                self.numbers += 1;
+                if let Ok(i) = text.trim().parse::<i64>() {
+                    self.integers += 1;
+                    self.wide_integer |= i.unsigned_abs() > F64_EXACT_INTEGERS as u64;
+                }
+            }
             Cell::Text => self.texts += 1,
         }
+    }
+
+    /// Whether the column is integers throughout its first rows, one of them beyond what f64 holds
+    /// exactly: nanosecond epoch timestamps (≈ 1.7·10¹⁸), which as f64 are rounded to 256 ns
+    /// steps (a 100-Hz logger read as 99.9987 Hz). Such a column stays `Int64`, parsed by
+    /// arrow-csv, and a time column of it is integer ticks subtracted as integers.
+    fn wide_integers(&self) -> bool {
+        self.wide_integer && self.texts == 0 && self.integers == self.numbers
     }
 
     /// Whether the column is read as numbers (see the module documentation).
