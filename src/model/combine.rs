@@ -731,10 +731,13 @@ const SLOPE_TOLERANCE: f64 = 0.15;
 /// where the curve has the term's `slope`, read at `tau` (1 s for N, 3 s for K), as the field
 /// reads them by hand (IEEE Std 952 Annex C, and allan_variance_ros's fitted lines): at `tau`
 /// itself where the local slope there is the term's, else through the midpoint of the pair of
-/// neighbouring points whose slope is nearest the term's (within [`SLOPE_TOLERANCE`]; nearest
-/// `tau` among equals, both points from `min_tau_s` on), else N at 1 s with the slope shown and
-/// no K: the value at τ = 3 s alone, where N still rules there, had read K at 15× the fitted value
-/// (slope −0.45) on a 1-kHz MEMS gyro, and at 34× the truth on a 20-min one.
+/// neighbouring points whose slope is the term's within [`SLOPE_TOLERANCE`] and is measured best
+/// (the most averages: [`slope_noise`]; nearest the term's slope among equals; both points from
+/// `min_tau_s` on), else N at 1 s with the slope shown and no K: the value at τ = 3 s alone, where
+/// N still rules there, had read K at 15× the fitted value (slope −0.45) on a 1-kHz MEMS gyro, and
+/// at 34× the truth on a 20-min one. The pair nearest the term's slope whatever its noise read N at
+/// 100× the truth on a gyro whose bias instability rules from 0.05 s: a pair at 463 s with 4
+/// degrees of freedom happened to fall at −0.45, nearer −½ than the short-τ pairs' −0.44.
 fn slope_line(
     dev: &Deviations,
     term: Term,
@@ -769,10 +772,7 @@ fn slope_line(
         })
         .filter(|(_, s)| (s - slope).abs() <= SLOPE_TOLERANCE)
         .min_by(|a, b| {
-            let key = |(i, s): (usize, f64)| {
-                let mid = (dev.tau_s[i] * dev.tau_s[i + 1]).sqrt();
-                ((s - slope).abs(), (mid / tau).ln().abs())
-            };
+            let key = |(i, s): (usize, f64)| (slope_noise(dev, i), (s - slope).abs());
             key(*a)
                 .partial_cmp(&key(*b))
                 .unwrap_or(std::cmp::Ordering::Equal)
@@ -790,6 +790,16 @@ fn slope_line(
         hi: read(geo(&dev.variance_hi), mid).sqrt(),
         slope: s,
     })
+}
+
+/// The standard error of the log-log slope between points `i` and `i + 1`, from their degrees of
+/// freedom (var ln σ² ≈ 2/EDF each, taken as independent).
+fn slope_noise(dev: &Deviations, i: usize) -> f64 {
+    let var = |k: usize| match dev.edf.get(k) {
+        Some(&e) if e > 0.0 => 2.0 / e,
+        _ => f64::INFINITY,
+    };
+    0.5 * (var(i) + var(i + 1)).sqrt() / (dev.tau_s[i + 1] / dev.tau_s[i]).ln().abs()
 }
 
 /// The index of the smallest Allan variance.
@@ -1056,6 +1066,40 @@ mod tests {
         );
         assert!((rk.value / k - 1.0).abs() < 0.1, "{rk:?}");
         assert!(rk.lo < rk.value && rk.value < rk.hi);
+    }
+
+    /// A gyro whose bias instability rules from 0.1 s: the shortest pair falls at −0.485, and a
+    /// chance wiggle at long τ (few averages) at −0.495. N is read where it is measured best, not at
+    /// the wiggle (which had read it at 100× the truth).
+    #[test]
+    fn n_is_read_where_its_slope_is_measured_best() {
+        use crate::avar::Statistic;
+        let ms: Vec<u64> = (0..18).map(|k| 1u64 << k).collect();
+        let tau: Vec<f64> = ms.iter().map(|&m| m as f64 / 200.0).collect();
+        let (n, b) = (0.01f64, 0.025f64);
+        let mut variance: Vec<f64> = tau.iter().map(|t| n * n / t + b * b).collect();
+        let j = 16;
+        variance[j + 1] = variance[j] * 2f64.powf(-0.99);
+        let edf: Vec<f64> = ms.iter().map(|&m| 4e5 / m as f64).collect();
+        let dev = Deviations {
+            statistic: Statistic::Oadev,
+            rate_hz: 200.0,
+            m: ms.clone(),
+            tau_s: tau,
+            variance: variance.clone(),
+            n_terms: ms.iter().map(|_| 100).collect(),
+            alpha: vec![0; ms.len()],
+            edf,
+            variance_lo: variance.iter().map(|v| 0.9 * v).collect(),
+            variance_hi: variance.iter().map(|v| 1.1 * v).collect(),
+            confidence: 0.6827,
+        };
+        let first = 0.5 * (variance[1] / variance[0]).ln() / 2f64.ln();
+        assert!((first + 0.5).abs() <= SLOPE_TOLERANCE, "{first}");
+        let r = read_offs(&dev, 0.005);
+        let rn = *r.iter().find(|x| x.term == Term::RandomWalk).unwrap();
+        assert!(rn.tau_s < 0.01, "{rn:?}");
+        assert!((rn.value / n - 1.0).abs() < 0.15, "{rn:?}");
     }
 
     fn fit(domain: Domain, estimates: Vec<TermEstimate>, upper: Vec<(Term, f64)>) -> NoiseFit {
