@@ -13,7 +13,10 @@
 //! - a channel the quality screen flagged (saturated, frozen, gravity in another unit, ...) is
 //!   listed with its verdict but is not the worst axis while an unflagged axis of the sensor has
 //!   a value: a clipped accelerometer's random walk (26 times the truth) had gone into the file
-//!   as the sensor's;
+//!   as the sensor's; where every axis with a value is flagged, the key is written commented out
+//!   with the verdict, so that Kalibr stops on the missing key instead of using the value:
+//!   accelerometers in m/s² labelled g (every axis flagged `gravity_scale`) had written a noise
+//!   density 9.8 times the truth under the comment "worst axis";
 //! - no value that is not finite: YAML readers take `inf` as text;
 //! - N with the spikes the loop removed where they were the tail of the noise (a `heavy_tail`
 //!   warning): a filter sees every sample (Student-t noise: N without them 14 % low);
@@ -153,14 +156,20 @@ pub fn imu_yaml(
                     .filter(|(v, _)| v.0.is_finite())
                     .max_by(|a, b| a.0 .0.total_cmp(&b.0 .0))
             };
-            let worst = values(true).or_else(|| values(false));
-            match worst {
-                Some(((v, upper, domain), channel)) => keys.push(format!(
+            match (values(true), values(false)) {
+                (Some(((v, upper, domain), channel)), _) => keys.push(format!(
                     "{prefix}_{key}: {v:.6e}  # {} {channel}, {domain}{}",
                     if upper { "upper limit," } else { "worst axis" },
                     if upper { " (not significant)" } else { "" }
                 )),
-                None => keys.push(format!("# {prefix}_{key}: no fit succeeded")),
+                (None, Some(((v, upper, _), channel))) => keys.push(format!(
+                    "# {prefix}_{key}: {}{v:.6e}  # NOT WRITTEN: every {prefix} axis with a \
+                     value is flagged by the quality screen ({channel}: {}); fix the input, or \
+                     uncomment the key if you accept the value",
+                    if upper { "< " } else { "" },
+                    flagged(channel).unwrap_or_default()
+                )),
+                (None, None) => keys.push(format!("# {prefix}_{key}: no fit succeeded")),
             }
         }
     }

@@ -257,9 +257,11 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
         out,
         "\n### Coefficients (combined)\n\nOne value per term: the more precise of the two fits, or \
          the one whose model has the term's neighbours (Q–N–B–K–R) when only one does; the interval \
-         spans both fits where they disagree. Read-offs: N = σ(1 s), B = min σ/0.664, K = σ(3 s) \
-         from the Allan deviation, with the {} interval of σ there (the slope there says whether \
-         the term rules it).\n",
+         spans both fits where they disagree. Read-offs from the Allan deviation: N = σ(τ)·√τ and \
+         K = σ(τ)·√(3/τ) on their slope lines (at τ = 1 s and 3 s, interpolated between the \
+         octave points, where the curve's slope is the term's there; else at the τ shown, the \
+         best-measured pair of points with the term's slope), B = min σ/0.664; with the {} \
+         interval of σ there (the slope says whether the term rules it).\n",
         confidence_text(analysis)
     );
     let _ = writeln!(

@@ -491,3 +491,54 @@ fn a_clipped_axis_is_not_the_worst_axis_of_imu_yaml() {
     assert!(z_line.contains("[quality: possibly saturated"), "{yaml}");
     assert!(!yaml.to_lowercase().contains("inf "), "{yaml}");
 }
+
+/// imu.yaml where every accelerometer axis is flagged: values in m/s² labelled g (gravity read as
+/// 96 m/s²) had written a noise density 9.8× the truth under "worst axis". The keys are now
+/// commented out with the verdict, so that Kalibr stops on them; the gyro keys are written.
+#[test]
+fn imu_yaml_writes_no_accelerometer_key_when_every_axis_is_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("imu.arrow");
+    let n = 60_000;
+    let accel = |seed: u64, mean: f64| -> Vec<f64> {
+        noise(n, seed).iter().map(|v| mean + 0.01 * v).collect()
+    };
+    let cols = [
+        f64_col(
+            "gyro_x",
+            noise(n, 40).iter().map(|v| 1e-3 * v).collect(),
+            Some("rad/s"),
+        ),
+        f64_col("accel_x", accel(41, 0.1), Some("g")),
+        f64_col("accel_y", accel(42, -0.2), Some("g")),
+        f64_col("accel_z", accel(43, 9.81), Some("g")),
+    ];
+    write_ipc_file(&file, &batch(&cols, Some(100.0)), 8192);
+    run_ok(
+        &[
+            "analyze",
+            file.to_str().unwrap(),
+            "-o",
+            "out",
+            "--backend",
+            "cpu",
+        ],
+        dir.path(),
+    );
+    let yaml = std::fs::read_to_string(dir.path().join("out/imu/imu.yaml")).unwrap();
+    assert!(
+        !yaml.lines().any(|l| l.starts_with("accelerometer_")),
+        "{yaml}"
+    );
+    let commented = yaml
+        .lines()
+        .find(|l| l.starts_with("# accelerometer_noise_density:"))
+        .unwrap_or_else(|| panic!("{yaml}"));
+    assert!(commented.contains("NOT WRITTEN"), "{yaml}");
+    assert!(commented.contains("read as g"), "{yaml}");
+    assert!(
+        yaml.lines()
+            .any(|l| l.starts_with("gyroscope_noise_density:")),
+        "{yaml}"
+    );
+}
