@@ -67,13 +67,29 @@ fn every_format_reads_the_same_samples_in_si_units() {
     write_ipc_file(&dir.path().join("r.arrow"), &b, 777);
     write_ipc_stream(&dir.path().join("r.arrows"), &b, 1000);
     write_parquet(&dir.path().join("r.parquet"), &b, 600);
+    // Every codec a Parquet writer commonly uses (gzip is pandas' second choice, Spark's older
+    // default; a build without it had called such files corrupt).
+    use parquet::basic::{BrotliLevel, Compression, GzipLevel, ZstdLevel};
+    let codecs = [
+        ("r_snappy.parquet", Compression::SNAPPY),
+        ("r_gzip.parquet", Compression::GZIP(GzipLevel::default())),
+        ("r_brotli.parquet", Compression::BROTLI(BrotliLevel::default())),
+        ("r_zstd.parquet", Compression::ZSTD(ZstdLevel::default())),
+        ("r_lz4.parquet", Compression::LZ4_RAW),
+    ];
+    for (name, codec) in codecs {
+        write_parquet_compressed(&dir.path().join(name), &b, 600, codec);
+    }
     write_csv(
         &dir.path().join("r.csv"),
         &[("gyro", Some("deg/s")), ("accel", Some("g"))],
         &[g.clone(), a.clone()],
     );
     let deg = std::f64::consts::PI / 180.0;
-    for name in ["r.arrow", "r.arrows", "r.parquet", "r.csv"] {
+    let names = ["r.arrow", "r.arrows", "r.parquet", "r.csv"]
+        .into_iter()
+        .chain(codecs.iter().map(|(name, _)| *name));
+    for name in names {
         let mut inputs = Inputs::default();
         inputs.open.batch_rows = 512;
         if name.ends_with("csv") {

@@ -99,9 +99,25 @@ pub fn write_ipc_stream(path: &Path, batch: &RecordBatch, rows_per_batch: usize)
 }
 
 pub fn write_parquet(path: &Path, batch: &RecordBatch, rows_per_group: usize) {
+    write_parquet_compressed(
+        path,
+        batch,
+        rows_per_group,
+        parquet::basic::Compression::UNCOMPRESSED,
+    );
+}
+
+/// Parquet with every column compressed by `compression`.
+pub fn write_parquet_compressed(
+    path: &Path,
+    batch: &RecordBatch,
+    rows_per_group: usize,
+    compression: parquet::basic::Compression,
+) {
     let f = std::fs::File::create(path).unwrap();
     let props = parquet::file::properties::WriterProperties::builder()
         .set_max_row_group_row_count(Some(rows_per_group))
+        .set_compression(compression)
         .build();
     let mut w = parquet::arrow::ArrowWriter::try_new(f, batch.schema(), Some(props)).unwrap();
     w.write(batch).unwrap();
