@@ -191,21 +191,39 @@ fn lookup<T: Copy>(entries: &[(String, T)], column: &str) -> Option<T> {
         .map(|(_, v)| *v)
 }
 
-/// Types a channel column may have.
+/// Types a channel column may have: integers and floats of every width, decimals, and a
+/// dictionary of any of them (each read as f64, see [`crate::io::convert::append_samples`]).
 pub fn is_sample_type(t: &DataType) -> bool {
-    matches!(
-        t,
-        DataType::Float32
-            | DataType::Float64
-            | DataType::Int8
-            | DataType::Int16
-            | DataType::Int32
-            | DataType::Int64
-            | DataType::UInt8
-            | DataType::UInt16
-            | DataType::UInt32
-            | DataType::UInt64
-    )
+    match t {
+        DataType::Dictionary(_, values) => {
+            !matches!(values.as_ref(), DataType::Dictionary(..)) && is_sample_type(values)
+        }
+        _ => matches!(
+            t,
+            DataType::Float16
+                | DataType::Float32
+                | DataType::Float64
+                | DataType::Int8
+                | DataType::Int16
+                | DataType::Int32
+                | DataType::Int64
+                | DataType::UInt8
+                | DataType::UInt16
+                | DataType::UInt32
+                | DataType::UInt64
+                | DataType::Decimal128(..)
+                | DataType::Decimal256(..)
+        ),
+    }
+}
+
+/// Whether a column says it holds a measurement (a `unit` or `kind` in its metadata, a CSV
+/// header's `[unit]`, or a ROS export's sensor field), so that one of a type that is not a sample
+/// type is an error rather than a column silently left out: a gyro stored as text throughout (a
+/// dead axis logged as `N/A`) or in a type this reader lacks had vanished from the report, exit 0.
+fn labelled_as_measurement(field: &Field) -> bool {
+    let meta = field.metadata();
+    meta.contains_key("unit") || meta.contains_key("kind") || ros_unit(field.name()).is_some()
 }
 
 /// Names (any letter case) a time column goes by, in loggers' and ROS exports' spellings; the
@@ -548,6 +566,17 @@ pub fn select_channels(
             .join(", ")
     };
     let columns: Vec<usize> = if overrides.channels.is_empty() {
+        let unreadable = (0..schema.fields().len()).find(|&i| {
+            let f = schema.field(i);
+            Some(i) != time_column && !numeric.contains(&i) && labelled_as_measurement(f)
+        });
+        if let Some(i) = unreadable {
+            return Err(InputError::UnsupportedType {
+                path: path.to_path_buf(),
+                column: schema.field(i).name().clone(),
+                data_type: schema.field(i).data_type().to_string(),
+            });
+        }
         if numeric.is_empty() {
             return Err(InputError::NoNumericColumn {
                 path: path.to_path_buf(),

@@ -37,6 +37,14 @@ pub fn append_samples(array: &ArrayRef, factor: f64, offset: f64, out: &mut Vec<
         DataType::UInt16 => push::<UInt16Type>(array, out, |v| lin(v as f64)),
         DataType::UInt32 => push::<UInt32Type>(array, out, |v| lin(v as f64)),
         DataType::UInt64 => push::<UInt64Type>(array, out, |v| lin(v as f64)),
+        // Half floats, decimals and dictionaries of numbers: cast to f64 first (a copy of the
+        // block; these are rare enough not to need a path of their own).
+        t if super::channels::is_sample_type(t) => {
+            match arrow_cast::cast(array, &DataType::Float64) {
+                Ok(cast) => push::<Float64Type>(&cast, out, lin),
+                Err(_) => return false,
+            }
+        }
         _ => return false,
     }
     true

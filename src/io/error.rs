@@ -88,7 +88,7 @@ pub enum InputError {
         column: String,
         available: String,
     },
-    #[error("{path}: column {column:?} has type {data_type}, which is not a numeric sample type")]
+    #[error("{path}: column {column:?} has type {data_type}, which is not a numeric sample type (integers, floats, decimals); convert it, or name the channels to analyse with --channels to leave it out")]
     UnsupportedType {
         path: PathBuf,
         column: String,

@@ -73,7 +73,10 @@ fn every_format_reads_the_same_samples_in_si_units() {
     let codecs = [
         ("r_snappy.parquet", Compression::SNAPPY),
         ("r_gzip.parquet", Compression::GZIP(GzipLevel::default())),
-        ("r_brotli.parquet", Compression::BROTLI(BrotliLevel::default())),
+        (
+            "r_brotli.parquet",
+            Compression::BROTLI(BrotliLevel::default()),
+        ),
         ("r_zstd.parquet", Compression::ZSTD(ZstdLevel::default())),
         ("r_lz4.parquet", Compression::LZ4_RAW),
     ];
@@ -102,6 +105,67 @@ fn every_format_reads_the_same_samples_in_si_units() {
             assert_eq!(data[1][i], a[i] * 9.80665, "{name} accel row {i}");
         }
     }
+}
+
+/// Half floats, decimals and dictionaries of floats are read as numbers; a column that says it is
+/// a measurement (unit or kind metadata, a CSV header's unit) but holds text is an error naming
+/// it. Defect: both had been left out silently (exit 0, channels missing from the report).
+#[test]
+fn every_numeric_type_is_read_and_a_labelled_text_column_is_an_error() {
+    use arrow_array::{DictionaryArray, Float64Array, Int8Array};
+    use arrow_schema::DataType;
+    let dir = tempfile::tempdir().unwrap();
+    let n = 2000;
+    // Values a half float and a 4-digit decimal hold exactly.
+    let v: Vec<f64> = (0..n)
+        .map(|i| ((i * 37) % 64) as f64 / 16.0 - 2.0)
+        .collect();
+    let f64s = Arc::new(Float64Array::from(v.clone())) as ArrayRef;
+    let cast = |t: DataType| arrow_cast::cast(&f64s, &t).unwrap();
+    let keys = Int8Array::from_iter_values(v.iter().map(|x| ((x + 2.0) * 16.0) as i8));
+    let dict_values = Float64Array::from_iter_values((0..64).map(|k| k as f64 / 16.0 - 2.0));
+    let dict = Arc::new(DictionaryArray::new(keys, Arc::new(dict_values))) as ArrayRef;
+    let col = |name: &str, array: ArrayRef| Col {
+        name: name.into(),
+        array,
+        meta: vec![("unit", "deg/s".into())],
+    };
+    let mut cols = vec![
+        col("gyro_x", cast(DataType::Float16)),
+        col("gyro_y", cast(DataType::Decimal128(12, 4))),
+        col("gyro_z", dict),
+    ];
+    let path = dir.path().join("types.arrow");
+    write_ipc_file(&path, &batch(&cols, Some(RATE)), 512);
+    let (data, report) = read_all(&path, &Inputs::default()).unwrap();
+    assert_eq!(report.samples_out, n as u64);
+    let deg = std::f64::consts::PI / 180.0;
+    for (c, column) in data.iter().enumerate() {
+        assert_eq!(data.len(), 3);
+        for i in 0..n {
+            assert_eq!(column[i], v[i] * deg, "channel {c} row {i}");
+        }
+    }
+
+    cols.push(col(
+        "accel_x",
+        Arc::new(StringArray::from_iter_values((0..n).map(|_| "N/A"))) as ArrayRef,
+    ));
+    write_ipc_file(&path, &batch(&cols, Some(RATE)), 512);
+    let e = err_of(&path, &Inputs::default());
+    assert_eq!(e.column(), Some("accel_x"), "{e}");
+    assert!(e.to_string().contains("--channels"), "{e}");
+
+    // A dead axis in a CSV export: a header with a unit over text throughout.
+    let csv = dir.path().join("dead.csv");
+    write_csv_text(
+        &csv,
+        "gyro_x [deg/s],gyro_y [deg/s]",
+        (0..n).map(|i| format!("{},N/A", v[i])),
+    );
+    let e = err_of(&csv, &csv_inputs(65_536));
+    assert_eq!((e.column(), e.row()), (Some("gyro_y"), Some(0)), "{e}");
+    assert!(e.to_string().contains("\"N/A\""), "{e}");
 }
 
 #[test]

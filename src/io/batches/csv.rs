@@ -155,7 +155,7 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
         check_record(path, &bare, &record, row)?;
         for (s, bytes) in stats.iter_mut().zip(&record.fields) {
             // UTF-8 was checked just above.
-            s.add(std::str::from_utf8(bytes).unwrap_or(""));
+            s.add(std::str::from_utf8(bytes).unwrap_or(""), row);
         }
     }
     drop(scanner);
@@ -179,6 +179,22 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
                 inferred.fields().len()
             ),
         ));
+    }
+
+    // A column whose header gives a unit is a measurement: one with no number in its first rows (a
+    // dead axis logged as `N/A`) is an error at its first value, as text later in it is, rather
+    // than a column of text silently left out.
+    for ((name, unit), s) in parts.iter().zip(&stats) {
+        if let (Some(_), 0, Some((row, value))) = (unit, s.numbers, &s.first_text) {
+            return Err(InputError::BadValue {
+                path: path.to_path_buf(),
+                column: name.clone(),
+                row: *row,
+                line: line_of_row(path, *row),
+                value: shown(value),
+                expected: "a number",
+            });
+        }
     }
 
     let fields: Vec<Field> = inferred
@@ -214,13 +230,15 @@ struct ColumnStats {
     integers: u64,
     /// Whether one of those integers is beyond 2⁵³, where f64 no longer holds every integer.
     wide_integer: bool,
+    /// The first value that is not a number, and its row.
+    first_text: Option<(u64, String)>,
 }
 
 /// The largest integer below which f64 holds every integer.
 const F64_EXACT_INTEGERS: i64 = 1 << 53;
 
 impl ColumnStats {
-    fn add(&mut self, text: &str) {
+    fn add(&mut self, text: &str, row: u64) {
         match cell(text) {
             Cell::Missing => {}
             Cell::Number(_) => {
@@ -230,7 +248,12 @@ impl ColumnStats {
                     self.wide_integer |= i.unsigned_abs() > F64_EXACT_INTEGERS as u64;
                 }
             }
-            Cell::Text => self.texts += 1,
+            Cell::Text => {
+                self.texts += 1;
+                if self.first_text.is_none() {
+                    self.first_text = Some((row, text.to_string()));
+                }
+            }
         }
     }
 
