@@ -320,8 +320,8 @@ pub fn document(
     })
 }
 
-/// Writes a table in the asked formats as `dir/stem.arrow` and `dir/stem.csv` (nothing for an empty
-/// table).
+/// Writes a table in the asked formats as `dir/stem.arrow` and `dir/stem.csv`; for an empty table
+/// nothing, and an earlier run's files of those names are removed.
 pub fn write_table(
     dir: &Path,
     stem: &str,
@@ -329,6 +329,18 @@ pub fn write_table(
     formats: Formats,
 ) -> Result<(), OutputError> {
     if table.rows() == 0 {
+        // Nothing to write (every input failed): an earlier run's table of the same name is
+        // removed, not left beside a summary that says no file was analysed (its numbers had
+        // looked current).
+        for ext in ["arrow", "csv"] {
+            let path = dir.join(format!("{stem}.{ext}"));
+            match std::fs::remove_file(&path) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(OutputError::new(&path, e))
+                }
+                _ => {}
+            }
+        }
         return Ok(());
     }
     if formats.arrow {

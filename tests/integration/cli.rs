@@ -247,6 +247,25 @@ fn an_earlier_runs_folder_does_not_look_current() {
     assert!(out.join("earlier-runs/b/imu.yaml").exists());
     assert!(out.join("earlier-runs/b/plots/g_psd.png").exists());
     assert!(out.join("a/imu.yaml").exists() && out.join("a/plots/g_avar.svg").exists());
+
+    // Every input failing: no table of the earlier run stays beside a summary of none analysed
+    // (its numbers had looked current).
+    assert!(out.join("coefficients.csv").exists() && out.join("psd.arrow").exists());
+    write("a.arrow", 1, true);
+    let third = imunoise(&args, dir.path());
+    assert_eq!(third.status.code(), Some(1), "{third:?}");
+    for table in ["coefficients", "psd", "psd_binned", "avar"] {
+        for ext in ["csv", "arrow"] {
+            let path = out.join(format!("{table}.{ext}"));
+            assert!(
+                !path.exists(),
+                "{} left from the earlier run",
+                path.display()
+            );
+        }
+    }
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(summary.contains("0 files analysed, 2 failed"), "{summary}");
 }
 
 /// `imunoise simulate --spec` of `spec`, then `analyze` of it: the first channel's analysis from
