@@ -260,13 +260,15 @@ pub fn run(
     let analysis = match (&work.fit, &psd, &avar) {
         (Some(opts), Some(psd), Some(avar)) => {
             let t = Instant::now();
+            let (avar, thinned_grid) = fit_grid(avar);
             let loop_cfg = match (work.residual_loop, &work.welch, &work.avar) {
                 (true, Some(w), Some(a)) => Some(LoopConfig {
                     welch: w.plan.config().clone(),
                     bins_per_decade: w.bins_per_decade.unwrap_or(20),
-                    taus: match &a.taus {
-                        TauSpec::Grid(g) => g.clone(),
-                        TauSpec::Seconds(t) => {
+                    taus: match (thinned_grid, &a.taus) {
+                        (Some(m), _) => TauGrid::Explicit(m),
+                        (None, TauSpec::Grid(g)) => g.clone(),
+                        (None, TauSpec::Seconds(t)) => {
                             TauGrid::Explicit(factors_for_seconds(t, recording.rate_hz))
                         }
                     },
@@ -281,7 +283,7 @@ pub fn run(
                 &recording,
                 &quality,
                 psd,
-                avar,
+                &avar,
                 samples,
                 opts,
                 loop_cfg.as_ref(),
@@ -481,6 +483,40 @@ fn psd_error(recording: &Recording, quality: &QualityReport, e: PsdError) -> Err
             source,
         },
     }
+}
+
+/// The Allan curves the model stage fits: the estimated ones, thinned to
+/// [`crate::model::fit_points`] where the grid asked for is denser than that, with the averaging
+/// factors kept (for the residual loop's re-estimates; `None` where nothing was thinned).
+fn fit_grid(
+    avar: &[ChannelDeviations],
+) -> (std::borrow::Cow<'_, [ChannelDeviations]>, Option<Vec<u64>>) {
+    let keep = avar
+        .iter()
+        .flat_map(|c| &c.statistics)
+        .map(|d| (d, crate::model::fit_points(&d.tau_s)))
+        .find(|(d, keep)| keep.len() < d.len());
+    let Some((d, keep)) = keep else {
+        return (std::borrow::Cow::Borrowed(avar), None);
+    };
+    let m: Vec<u64> = keep.iter().map(|&i| d.m[i]).collect();
+    let thinned = avar
+        .iter()
+        .map(|c| ChannelDeviations {
+            channel: c.channel.clone(),
+            statistics: c
+                .statistics
+                .iter()
+                .map(|d| {
+                    let rows: Vec<usize> = (0..d.len())
+                        .filter(|&i| m.binary_search(&d.m[i]).is_ok())
+                        .collect();
+                    d.subset(&rows)
+                })
+                .collect(),
+        })
+        .collect();
+    (std::borrow::Cow::Owned(thinned), Some(m))
 }
 
 /// Averaging factors for explicit τ: the nearest integer m = τ·rate, at least 1.

@@ -57,4 +57,24 @@ impl Deviations {
     pub fn is_empty(&self) -> bool {
         self.m.is_empty()
     }
+
+    /// The rows at `keep` (increasing indices).
+    pub fn subset(&self, keep: &[usize]) -> Deviations {
+        fn pick<T: Copy>(v: &[T], keep: &[usize]) -> Vec<T> {
+            keep.iter().map(|&i| v[i]).collect()
+        }
+        Deviations {
+            statistic: self.statistic,
+            rate_hz: self.rate_hz,
+            m: pick(&self.m, keep),
+            tau_s: pick(&self.tau_s, keep),
+            variance: pick(&self.variance, keep),
+            n_terms: pick(&self.n_terms, keep),
+            alpha: pick(&self.alpha, keep),
+            edf: pick(&self.edf, keep),
+            variance_lo: pick(&self.variance_lo, keep),
+            variance_hi: pick(&self.variance_hi, keep),
+            confidence: self.confidence,
+        }
+    }
 }

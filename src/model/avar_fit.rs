@@ -47,6 +47,27 @@ const CORRELATION: [(f64, f64, f64); TERMS] = [
     (0.0, 1.46, 1.25),
 ];
 
+/// The smallest ratio between neighbouring τ the fit uses (a quarter octave).
+pub const FIT_TAU_RATIO: f64 = 1.189_207_115_002_721;
+
+/// The points of an Allan curve the fit uses: from the first, each next one at least
+/// [`FIT_TAU_RATIO`] beyond the last taken (at most about 13 per decade). Neighbouring τ of a
+/// denser grid share almost every sample, so they add little the correlation model does not
+/// already discount, while the fit's working correlations grow with the square of the points
+/// and their factorisation with the cube: `--taus all` on a 10-min 100-Hz record (30 000 τ)
+/// had run out of memory. Every grid up to 13 per decade (octave, 1-2-5, 10 per decade) is used
+/// whole; the tables and plots keep the grid asked for.
+pub fn fit_points(tau_s: &[f64]) -> Vec<usize> {
+    let mut keep: Vec<usize> = Vec::new();
+    for (i, &t) in tau_s.iter().enumerate() {
+        match keep.last() {
+            Some(&k) if t < tau_s[k] * FIT_TAU_RATIO * (1.0 - 1e-9) => {}
+            _ => keep.push(i),
+        }
+    }
+    keep
+}
+
 /// Fits the IEEE terms to an Allan-variance curve (OADEV or ADEV).
 ///
 /// ```
@@ -213,6 +234,25 @@ fn samples(d: &Deviations) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every averaging factor (`--taus all`) is thinned to quarter octaves; an octave or 10-per-
+    /// decade grid is used whole.
+    #[test]
+    fn the_fit_thins_only_grids_denser_than_a_quarter_octave() {
+        let all: Vec<f64> = (1..=30_000).map(|m| m as f64 / 100.0).collect();
+        let keep = fit_points(&all);
+        assert_eq!(keep[0], 0);
+        for w in keep.windows(2) {
+            assert!(all[w[1]] >= all[w[0]] * FIT_TAU_RATIO * (1.0 - 1e-9));
+            // The next point after the last kept one is taken, not a later one.
+            assert!(all[w[1] - 1] < all[w[0]] * FIT_TAU_RATIO);
+        }
+        assert!(keep.len() < 90, "{}", keep.len());
+        let octave: Vec<f64> = (0..15).map(|k| 2f64.powi(k) / 100.0).collect();
+        assert_eq!(fit_points(&octave), (0..15).collect::<Vec<_>>());
+        let decade: Vec<f64> = (0..40).map(|k| 10f64.powf(k as f64 / 10.0)).collect();
+        assert_eq!(fit_points(&decade).len(), 40);
+    }
 
     /// Var(mean δ)/μ_N from the weights themselves: mean(δ) = Σ_k y_k·(a_k − b_k)/(M·m), with
     /// a_k and b_k the number of later and earlier τ-averages that sample k is in; white noise of

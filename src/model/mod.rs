@@ -77,7 +77,7 @@ mod select;
 mod terms;
 mod units;
 
-pub use avar_fit::{fit_avar, fit_avar_with};
+pub use avar_fit::{fit_avar, fit_avar_with, fit_points, FIT_TAU_RATIO};
 pub use average::{average_with_rival, rival_share};
 pub use bandwidth::{detect_bandwidth, BandEdge, Bandwidth, FilterForm, LowPass, BAND_BIAS};
 pub use combine::{

@@ -718,3 +718,39 @@ fn the_gpu_probe_is_quiet_unless_verbose() {
         );
     }
 }
+
+/// `analyze --taus all`: the tables keep every averaging factor, the fit a quarter-octave
+/// thinning of them (the fit's working correlations over 30 000 τ had run out of memory), and
+/// the white noise comes out as with the octave grid.
+#[test]
+fn analyze_with_every_averaging_factor_fits_a_thinned_curve() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 6000;
+    write_ipc_file(
+        &dir.path().join("g.arrow"),
+        &batch(&[f64_col("gyro", noise(n, 9), Some("rad/s"))], Some(50.0)),
+        1000,
+    );
+    let mut n_values = Vec::new();
+    for taus in ["all", "octave"] {
+        let out = format!("out_{taus}");
+        run_ok(
+            &["analyze", "g.arrow", "-o", &out, "--taus", taus, "--quiet"],
+            dir.path(),
+        );
+        let report: Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join(&out).join("report.json")).unwrap(),
+        )
+        .unwrap();
+        let stats = &report["files"][0]["avar"][0]["statistics"][0];
+        let rows = stats["m"].as_array().unwrap().len();
+        if taus == "all" {
+            assert_eq!(rows, (n - 1) / 2, "the table keeps every factor");
+        }
+        n_values.push(combined_value(&report, "gyro", "random_walk").unwrap());
+    }
+    // White noise σ = 1 at 50 Hz: N = 1/√50.
+    for v in &n_values {
+        assert!((v * 50f64.sqrt() - 1.0).abs() < 0.05, "{n_values:?}");
+    }
+}
