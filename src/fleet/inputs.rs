@@ -5,7 +5,8 @@
 //! skipping hidden entries (names starting with `.`: temporary files, `.git`), symbolic links to
 //! folders (no cycles) and the output folder (a screen of `.` into `./out` must not read its own
 //! Parquet results). A file named as an argument is taken whatever its extension: the reader
-//! says what it is. Roots are taken in argument order; a path met twice is taken once.
+//! says what it is. Roots are taken in argument order; a file met twice is taken once, however
+//! its path is spelled (compared after resolving links, `.` and `..`), at its first spelling.
 //!
 //! **The relative path** of an input is its path below the folder argument it was found in, or,
 //! for a file argument, its file name; with `/` separators on every platform. It, not the
@@ -132,7 +133,12 @@ pub fn collect_inputs(args: &[PathBuf], exclude: Option<&Path>) -> Result<Vec<In
             here.push((arg.clone(), name));
         }
         for (path, rel) in here {
-            if seen.insert(path.clone()) {
+            // Met twice however it is spelled (`fleet/u01.arrow`, `./fleet/u01.arrow`, its
+            // absolute path, through a linked folder): the same file screened three times had
+            // counted three times among its siblings' medians. A path that does not resolve
+            // (missing) is compared as written.
+            let identity = path.canonicalize().unwrap_or_else(|_| path.clone());
+            if seen.insert(identity) {
                 found.push((root_index, path, rel));
             }
         }
@@ -339,6 +345,29 @@ mod tests {
         );
         assert_ne!(inputs[0].key, inputs[1].key);
         assert_ne!(inputs[2].key, inputs[3].key);
+    }
+
+    /// One file named by four spellings (and found again in its folder) is one input, at its
+    /// first spelling.
+    #[test]
+    fn a_file_spelled_several_ways_is_taken_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let sub = dir.path().join("fleet");
+        std::fs::create_dir_all(&sub).unwrap();
+        for name in ["u01.arrow", "u02.arrow"] {
+            std::fs::write(sub.join(name), "x").unwrap();
+        }
+        let file = sub.join("u01.arrow");
+        let spellings = vec![
+            file.clone(),
+            sub.join(".").join("u01.arrow"),
+            sub.join("..").join("fleet").join("u01.arrow"),
+            file.canonicalize().unwrap(),
+            sub.clone(),
+        ];
+        let inputs = collect_inputs(&spellings, None).unwrap();
+        let paths: Vec<&Path> = inputs.iter().map(|i| i.path.as_path()).collect();
+        assert_eq!(paths, [file.as_path(), sub.join("u02.arrow").as_path()]);
     }
 
     #[test]
