@@ -9,8 +9,8 @@ use std::time::Duration;
 use clap::{Args, Parser};
 use imunoise::estimate::Backend;
 use imunoise::fleet::{
-    self, collect_inputs, fleet_step, plot_after_fleet, BatchConfig, FailOn, FileOutcome, Input,
-    Layout, Lock, Observer, PlotPolicy, Shard, Spec, Status,
+    self, collect_inputs_noting, fleet_step, plot_after_fleet, BatchConfig, FailOn, FileOutcome,
+    Input, Layout, Lock, Observer, PlotPolicy, Shard, Spec, Status,
 };
 use indicatif::{ProgressBar, ProgressState, ProgressStyle};
 use serde_json::json;
@@ -409,7 +409,19 @@ pub fn main(a: ScreenArgs) -> i32 {
 fn run(job: &ScreenJob) -> Result<i32, String> {
     let layout = &job.layout;
     // (An output folder that does not exist yet cannot be inside an input folder.)
-    let inputs = collect_inputs(&job.args, Some(&layout.dir)).map_err(|e| e.to_string())?;
+    let (inputs, skipped) =
+        collect_inputs_noting(&job.args, Some(&layout.dir)).map_err(|e| e.to_string())?;
+    if !skipped.is_empty() {
+        eprintln!(
+            "imunoise: note: left out {} folder(s) holding imunoise outputs, not recordings: {}",
+            skipped.len(),
+            skipped
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
     if inputs.is_empty() {
         return Err(format!(
             "no recordings found in {} (looked for .arrow, .feather, .ipc, .arrows, .parquet, \

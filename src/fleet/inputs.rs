@@ -3,8 +3,8 @@
 //! Arguments are folders or files. A folder is walked recursively, each level in byte order of
 //! the names, taking the files whose extension a reader knows ([`Format::from_extension`]) and
 //! skipping hidden entries (names starting with `.`: temporary files, `.git`), symbolic links to
-//! folders (no cycles) and the output folder (a screen of `.` into `./out` must not read its own
-//! Parquet results). A file named as an argument is taken whatever its extension: the reader
+//! folders (no cycles), the output folder (a screen of `.` into `./out` must not read its own
+//! Parquet results) and any other folder of this program's outputs ([`is_output_folder`]). A file named as an argument is taken whatever its extension: the reader
 //! says what it is. Roots are taken in argument order; a file met twice is taken once, however
 //! its path is spelled (compared after resolving links, `.` and `..`), at its first spelling.
 //!
@@ -116,7 +116,17 @@ pub fn read_list(list: &Path) -> Result<Vec<PathBuf>, ScreenError> {
 /// analysis fails with the reader's error (one missing file in a list does not stop the screen);
 /// a folder that cannot be read is an error naming it.
 pub fn collect_inputs(args: &[PathBuf], exclude: Option<&Path>) -> Result<Vec<Input>, ScreenError> {
+    collect_inputs_noting(args, exclude).map(|(inputs, _)| inputs)
+}
+
+/// [`collect_inputs`], with the folders left out because they hold this program's own outputs
+/// ([`is_output_folder`]), for the caller to name.
+pub fn collect_inputs_noting(
+    args: &[PathBuf],
+    exclude: Option<&Path>,
+) -> Result<(Vec<Input>, Vec<PathBuf>), ScreenError> {
     let exclude = exclude.and_then(|p| p.canonicalize().ok());
+    let mut skipped = Vec::new();
     // (root index, path, relative path)
     let mut found: Vec<(usize, PathBuf, String)> = Vec::new();
     let mut seen = HashSet::new();
@@ -125,7 +135,7 @@ pub fn collect_inputs(args: &[PathBuf], exclude: Option<&Path>) -> Result<Vec<In
         // An argument that cannot be read (gone since a list was made, mistyped) is taken as a
         // file: its row in the results carries the reader's error, and the others still run.
         if std::fs::metadata(arg).is_ok_and(|m| m.is_dir()) {
-            walk(arg, arg, exclude.as_deref(), &mut here)?;
+            walk(arg, arg, exclude.as_deref(), &mut here, &mut skipped)?;
         } else {
             let name = arg
                 .file_name()
@@ -178,7 +188,7 @@ pub fn collect_inputs(args: &[PathBuf], exclude: Option<&Path>) -> Result<Vec<In
         *stem_count.entry(stem(rel)).or_default() += 1;
         *without_count.entry(without(rel)).or_default() += 1;
     }
-    Ok(found
+    let inputs = found
         .into_iter()
         .zip(hashes)
         .map(|((_, path, rel), hash)| {
@@ -201,7 +211,8 @@ pub fn collect_inputs(args: &[PathBuf], exclude: Option<&Path>) -> Result<Vec<In
                 hash,
             }
         })
-        .collect())
+        .collect();
+    Ok((inputs, skipped))
 }
 
 /// A file-name-safe form of a stem: ASCII letters, digits, `_`, `-` and `.`, at most 40 of them.
@@ -224,16 +235,40 @@ fn sanitize(stem: &str) -> String {
     }
 }
 
+/// Whether `dir` holds this program's own outputs: an `analyze`, `psd` or `avar` folder (a
+/// `report.json` that ends naming this tool) or a screen's (`results/` beside `manifests/`). Its
+/// tables are not recordings: an analysis written inside the fleet's folder had come back as
+/// eight error rows ("no sample rate") of the next screen.
+pub fn is_output_folder(dir: &Path) -> bool {
+    if dir.join("results").is_dir() && dir.join("manifests").is_dir() {
+        return true;
+    }
+    let Ok(mut file) = std::fs::File::open(dir.join("report.json")) else {
+        return false;
+    };
+    use std::io::{Read, Seek, SeekFrom};
+    let mut tail = Vec::new();
+    let len = file.metadata().map_or(0, |m| m.len());
+    file.seek(SeekFrom::Start(len.saturating_sub(256))).is_ok()
+        && file.read_to_end(&mut tail).is_ok()
+        && String::from_utf8_lossy(&tail).contains("\"tool\": \"imunoise\"")
+}
+
 fn walk(
     root: &Path,
     dir: &Path,
     exclude: Option<&Path>,
     out: &mut Vec<(PathBuf, String)>,
+    skipped: &mut Vec<PathBuf>,
 ) -> Result<(), ScreenError> {
     if let (Some(ex), Ok(canon)) = (exclude, dir.canonicalize()) {
         if canon == ex {
             return Ok(());
         }
+    }
+    if is_output_folder(dir) {
+        skipped.push(dir.to_path_buf());
+        return Ok(());
     }
     let err = |e: std::io::Error| ScreenError::Input {
         path: dir.to_path_buf(),
@@ -256,7 +291,7 @@ fn walk(
         };
         if meta.is_dir() {
             if !link.file_type().is_symlink() {
-                walk(root, &path, exclude, out)?;
+                walk(root, &path, exclude, out, skipped)?;
             }
         } else if meta.is_file() && Format::from_extension(&path).is_some() {
             out.push((path.clone(), relative(root, &path)));
@@ -335,8 +370,25 @@ mod tests {
             std::fs::create_dir_all(p.parent().unwrap()).unwrap();
             std::fs::write(&p, "x").unwrap();
         }
-        let inputs =
-            collect_inputs(&[dir.path().to_path_buf()], Some(&dir.path().join("out"))).unwrap();
+        // An analysis written inside the fleet's folder, and another screen's output folder.
+        let analysis = dir.path().join("r1/analysis");
+        std::fs::create_dir_all(analysis.join("imu")).unwrap();
+        std::fs::write(analysis.join("psd.arrow"), "x").unwrap();
+        std::fs::write(analysis.join("imu/plot.csv"), "x").unwrap();
+        std::fs::write(
+            analysis.join("report.json"),
+            "{\n  \"schema_version\": 8,\n  \"tool\": \"imunoise\",\n  \"version\": \"0.1.0\"\n}\n",
+        )
+        .unwrap();
+        let screen = dir.path().join("old_screen");
+        for sub in ["results/shard=0", "manifests"] {
+            std::fs::create_dir_all(screen.join(sub)).unwrap();
+        }
+        std::fs::write(screen.join("results/shard=0/part-a.parquet"), "x").unwrap();
+        let (inputs, skipped) =
+            collect_inputs_noting(&[dir.path().to_path_buf()], Some(&dir.path().join("out")))
+                .unwrap();
+        assert_eq!(skipped, [screen, analysis]);
         let sensors: Vec<&str> = inputs.iter().map(|i| i.sensor.as_str()).collect();
         // The same stem in one folder: the extension tells them apart.
         assert_eq!(

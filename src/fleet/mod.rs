@@ -59,7 +59,7 @@ pub use assess::{assess, FailOn, Fleet, FleetRow, TermAssessment, TermStats, Unu
 pub use batch::{
     run_batch, BatchConfig, BatchSummary, FileOutcome, Observer, PlotPolicy, StageTimes,
 };
-pub use inputs::{collect_inputs, Input, Shard};
+pub use inputs::{collect_inputs, collect_inputs_noting, Input, Shard};
 pub use layout::{fleet_step, FleetStepSummary, Layout};
 pub use lock::{Lock, LockError, TakenOver};
 pub use plots::{plot_after_fleet, PlotPass};
