@@ -292,6 +292,12 @@ fn probe_time(
             break;
         }
     }
+    // Up to the first timestamp that goes back (a logger's clock reset): beyond it the span of
+    // the timestamps no longer measures the rate (a reset at row 30 000 had made a 100-Hz file
+    // 400 Hz, and the quality stage then called row 1 a gap instead of naming row 30 000).
+    if let Some(back) = times.windows(2).position(|w| w[1] < w[0]) {
+        times.truncate(back + 1);
+    }
     let fractional = times.iter().any(|&t| {
         let units = t / per_unit;
         units.is_finite() && (units - units.round()).abs() > 1e-6

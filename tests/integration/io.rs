@@ -817,6 +817,25 @@ fn nanosecond_epoch_stamps_in_a_csv_keep_their_resolution() {
     assert_eq!((e.column(), e.row()), (Some("stamp"), Some(2000)), "{e}");
 }
 
+/// A logger's clock reset part-way (time back to 0 at row 3000): the rate is the rows' before it,
+/// and the error names row 3000 going back. Defect: the timestamps' span over the reset gave
+/// 400 Hz, and the error called row 1 a gap.
+#[test]
+fn a_clock_reset_is_named_at_its_row_not_read_as_another_rate() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("reset.csv");
+    let row = |i: usize| format!("{:.2},{}", (i % 3000) as f64 * 0.01, (i % 5) as f64 * 0.1);
+    write_csv_text(&path, "time,gyro_x [deg/s]", (0..6000).map(row));
+    let rec = io::open(&path, &OpenOptions::default()).unwrap();
+    assert!((rec.rate_hz - 100.0).abs() < 1e-9, "{}", rec.rate_hz);
+    let e = err_of(&path, &Inputs::default());
+    assert!(
+        matches!(e, Error::Input(InputError::NonMonotonicTime { .. })),
+        "{e}"
+    );
+    assert_eq!((e.column(), e.row()), (Some("time"), Some(3000)), "{e}");
+}
+
 /// Records with the wrong number of fields, bytes that are not UTF-8, a header line that holds
 /// numbers: each names the row and line.
 #[test]

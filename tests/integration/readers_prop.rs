@@ -319,46 +319,67 @@ fn truncated_files_are_errors_at_every_length() {
     }
 }
 
-/// A column of text where a channel is expected: not a channel, and `--channels` naming it is an
-/// error naming the column, in every format.
+/// A column of text: without a unit it is a label, not a channel, and `--channels` naming it is
+/// an error naming the column; with a unit (metadata, a CSV header's `[unit]`) it says it is a
+/// measurement, and reading it is an error naming it (it had been left out silently), in every
+/// format.
 #[test]
 fn a_text_column_is_no_channel_and_naming_it_is_an_error() {
     let dir = tempfile::tempdir().unwrap();
     let n = 300;
     let labels: Vec<String> = (0..n).map(|i| format!("s{i}")).collect();
-    let b = batch(
-        &[
-            Col {
-                name: "g".into(),
-                array: Arc::new(arrow_array::StringArray::from(labels.clone())),
-                meta: vec![("unit", "deg/s".into())],
-            },
-            f64_col("a", noise(n, 1), Some("g")),
-        ],
-        Some(100.0),
-    );
-    for format in FORMATS {
-        let path = if format == "csv" {
-            let p = dir.path().join("text.csv");
-            let mut s = String::from("g [deg/s],a [g]\n");
-            for (i, l) in labels.iter().enumerate() {
-                s.push_str(&format!("{l},{:?}\n", noise(n, 1)[i]));
-            }
-            std::fs::write(&p, s).unwrap();
-            p
+    for labelled in [false, true] {
+        let meta = if labelled {
+            vec![("unit", "deg/s".into())]
         } else {
-            write_as(dir.path(), "text", format, &b, 100)
+            vec![]
         };
-        let (names, _) = read_raw(&path, &open_at(100.0, 64)).unwrap();
-        assert_eq!(names, vec!["a".to_string()], "{format}");
-        let mut open = open_at(100.0, 64);
-        open.columns.channels = vec!["g".into()];
-        let e = read_raw(&path, &open).unwrap_err();
-        assert!(
-            matches!(e, InputError::UnsupportedType { .. }),
-            "{format}: {e}"
+        let b = batch(
+            &[
+                Col {
+                    name: "g".into(),
+                    array: Arc::new(arrow_array::StringArray::from(labels.clone())),
+                    meta,
+                },
+                f64_col("a", noise(n, 1), Some("g")),
+            ],
+            Some(100.0),
         );
-        assert_eq!((e.path(), e.column()), (path.as_path(), Some("g")));
+        for format in FORMATS {
+            let path = if format == "csv" {
+                let p = dir.path().join("text.csv");
+                let g = if labelled { "g [deg/s]" } else { "g" };
+                let mut s = format!("{g},a [g]\n");
+                for (i, l) in labels.iter().enumerate() {
+                    s.push_str(&format!("{l},{:?}\n", noise(n, 1)[i]));
+                }
+                std::fs::write(&p, s).unwrap();
+                p
+            } else {
+                write_as(dir.path(), "text", format, &b, 100)
+            };
+            if labelled {
+                let e = read_raw(&path, &open_at(100.0, 64)).unwrap_err();
+                assert_eq!(
+                    (e.path(), e.column()),
+                    (path.as_path(), Some("g")),
+                    "{format}"
+                );
+            } else {
+                let (names, _) = read_raw(&path, &open_at(100.0, 64)).unwrap();
+                assert_eq!(names, vec!["a".to_string()], "{format}");
+            }
+            let mut open = open_at(100.0, 64);
+            open.columns.channels = vec!["g".into()];
+            let e = read_raw(&path, &open).unwrap_err();
+            if !labelled || format != "csv" {
+                assert!(
+                    matches!(e, InputError::UnsupportedType { .. }),
+                    "{format}: {e}"
+                );
+            }
+            assert_eq!((e.path(), e.column()), (path.as_path(), Some("g")));
+        }
     }
 }
 
