@@ -170,7 +170,7 @@ pub(crate) fn select_and_fit(
     } else {
         Vec::new()
     };
-    let estimates = idx
+    let estimates: Vec<TermEstimate> = idx
         .iter()
         .enumerate()
         .filter(|(_, &j)| j < BASE)
@@ -199,34 +199,48 @@ pub(crate) fn select_and_fit(
     // not admitted (its median 0.67× the truth); with the fixed point in 21 of 24 (nominal 84 %
     // one-sided at 1σ), median 1.30× the truth.
     let zq = normal_quantile((1.0 + p) / 2.0);
+    // The bound on term `j` in the model of terms `with` (which holds `j`).
+    let bound_in = |with: Mask, j: usize| -> f64 {
+        let all = members(with);
+        let pos = all.iter().position(|&t| t == j).unwrap_or(0);
+        let bound = |w: &Weights| {
+            let c = problem.solve(with, w);
+            let sd = problem.covariance(w, &all).map_or(f64::INFINITY, |cov| {
+                (dispersion * cov[pos][pos]).max(0.0).sqrt()
+            });
+            (c, c[j].max(0.0) + zq * sd)
+        };
+        let (mut c, mut upper) = bound(&fit.weights);
+        for _ in 0..UPPER_LIMIT_STEPS {
+            if !upper.is_finite() {
+                break;
+            }
+            let mut at = c;
+            at[j] = upper;
+            let mu = problem.model(&at);
+            let (next_c, next) = bound(&problem.weights(&at, &mu));
+            let settled = (next - upper).abs() <= 1e-6 * upper.abs();
+            (c, upper) = (next_c, next);
+            if settled {
+                break;
+            }
+        }
+        upper
+    };
+    // Where a kept term could not be told from this absent one (`ambiguous_with`), the bound is
+    // also taken in the model with the absent term in the kept one's place, and the larger one
+    // given: the power the two trade is then all the absent term's. Only with the kept one beside
+    // it, a spectrum that had read the low-frequency rise of B as K bounded B below the truth in
+    // 19 of 30 clean records (0.61–0.99× the truth; nominal 16 % at 1σ).
     let upper_limits = members(allowed & !mask)
         .into_iter()
         .map(|j| {
             let with = mask | (1 << j);
-            let all = members(with);
-            let pos = all.iter().position(|&t| t == j).unwrap_or(0);
-            let bound = |w: &Weights| {
-                let c = problem.solve(with, w);
-                let sd = problem.covariance(w, &all).map_or(f64::INFINITY, |cov| {
-                    (dispersion * cov[pos][pos]).max(0.0).sqrt()
-                });
-                (c, c[j].max(0.0) + zq * sd)
-            };
-            let (mut c, mut upper) = bound(&fit.weights);
-            for _ in 0..UPPER_LIMIT_STEPS {
-                if !upper.is_finite() {
-                    break;
-                }
-                let mut at = c;
-                at[j] = upper;
-                let mu = problem.model(&at);
-                let (next_c, next) = bound(&problem.weights(&at, &mu));
-                let settled = (next - upper).abs() <= 1e-6 * upper.abs();
-                (c, upper) = (next_c, next);
-                if settled {
-                    break;
-                }
-            }
+            let swapped = estimates
+                .iter()
+                .filter(|e| e.ambiguous_with == Some(Term::ALL[j]))
+                .map(|e| bound_in(with & !(1 << (e.term as usize)), j));
+            let upper = swapped.fold(bound_in(with, j), f64::max);
             UpperLimit {
                 term: Term::ALL[j],
                 upper: upper.sqrt(),
