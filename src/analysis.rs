@@ -257,7 +257,11 @@ fn bound_dropped_ramp(a: &mut ChannelAnalysis) {
     let upper = test.ramp.abs() + z * test.se;
     if upper.is_finite() {
         fit.upper_limits
-            .push(crate::model::UpperLimit { term: r, upper });
+            .push(crate::model::UpperLimit {
+                term: r,
+                upper,
+                beside_kept: upper,
+            });
     }
 }
 

@@ -231,9 +231,10 @@ pub struct InputArgs {
     pub no_time: bool,
 
     /// What to do with NaN, infinite or null samples: error (stop, naming the row), drop (remove the
-    /// row), interpolate (straight line between finite neighbours).
-    #[arg(long, default_value = "error", value_name = "POLICY")]
-    pub on_nonfinite: String,
+    /// row), interpolate (straight line between finite neighbours). Default: error, except for
+    /// `info`, which counts them (interpolate).
+    #[arg(long, value_name = "POLICY")]
+    pub on_nonfinite: Option<String>,
 
     /// What to do where the time column shows missing samples (an interval over 1.5 sample periods):
     /// error (stop, naming the row), ignore (report, analyse as contiguous), fill (insert linearly

@@ -112,9 +112,7 @@ pub fn job(cli: Cli) -> Result<Job, UsageError> {
         Command::Screen(_) => return Err(usage("screen is run by cli::screen")),
     };
     let mut options = serde_json::Map::new();
-    // `info` describes a file, gaps included: it reads past them unless told otherwise.
-    let gap_default = if command == "info" { "ignore" } else { "error" };
-    let inputs = inputs(&input, gap_default, &mut options)?;
+    let inputs = inputs(&input, command == "info", &mut options)?;
     let welch = welch.map(|w| welch_work(&w, &mut options)).transpose()?;
     let mut avar = avar.map(|a| avar_work(&a, &mut options)).transpose()?;
     let kalibr_topic = fit.as_ref().map(|f| f.rostopic.clone());
@@ -171,11 +169,19 @@ where
         .collect()
 }
 
+/// The input options; `describing` (`info`) reads past gaps and non-finite samples unless told
+/// otherwise, so that it describes them (it had refused a file with one NaN, which is what a user
+/// runs `info` to find out about).
 fn inputs(
     a: &InputArgs,
-    gap_default: &str,
+    describing: bool,
     options: &mut serde_json::Map<String, Value>,
 ) -> Result<Inputs, UsageError> {
+    let (gap_default, nonfinite_default) = if describing {
+        ("ignore", "interpolate")
+    } else {
+        ("error", "error")
+    };
     if let Some(r) = a.rate {
         if !(r.is_finite() && r > 0.0) {
             return Err(usage(format!(
@@ -196,6 +202,8 @@ fn inputs(
     let quality = QualityOptions {
         nonfinite: a
             .on_nonfinite
+            .as_deref()
+            .unwrap_or(nonfinite_default)
             .parse()
             .map_err(|e| usage(format!("--on-nonfinite: {e}")))?,
         gaps: a

@@ -167,11 +167,13 @@ pub fn ramp_free_density(fit: &NoiseFit, fs: f64) -> impl Fn(f64) -> f64 {
 }
 
 /// `fit`'s coefficients as [`ramp_free_density`] takes them: the kept terms and the left-out ones
-/// at their upper limits, R at 0.
+/// at their upper limits beside the kept ones ([`crate::model::UpperLimit::beside_kept`]), R at 0.
+/// The reported limit, which may weigh a left-out term in a kept neighbour's place, counted the
+/// power the two trade twice and hid a 200 °/h/h ramp the series showed plainly.
 pub fn ramp_free_coefficients(fit: &NoiseFit) -> Coefficients {
     let mut c = fit.coefficients();
-    for u in fit.upper_limits.iter().filter(|u| u.upper.is_finite()) {
-        c.set(u.term, u.upper);
+    for u in fit.upper_limits.iter().filter(|u| u.beside_kept.is_finite()) {
+        c.set(u.term, u.beside_kept);
     }
     c.set(Term::RateRamp, 0.0);
     c

@@ -604,7 +604,11 @@ pub fn combine(
         .filter_map(|term| {
             let upper = upper_limit(allan_fit, spectrum_fit, term)?;
             let upper = cap(term).map_or(upper, |c| upper.min(c));
-            Some(UpperLimit { term, upper })
+            Some(UpperLimit {
+                term,
+                upper,
+                beside_kept: upper,
+            })
         })
         .collect();
     let read_offs = dev

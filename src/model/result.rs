@@ -91,6 +91,13 @@ pub struct EffectEstimate {
 pub struct UpperLimit {
     pub term: Term,
     pub upper: f64,
+    /// The bound with every kept term beside it (≤ `upper`, which also weighs the term in the
+    /// place of a kept neighbour the fit could not tell from it): what a noise model that already
+    /// holds the kept terms may add of this one, for the regressions that build such a model
+    /// ([`crate::effects::ramp::ramp_free_coefficients`]), which would otherwise count the traded
+    /// power twice.
+    #[serde(skip)]
+    pub beside_kept: f64,
 }
 
 /// A subset of terms the criterion weighed.
@@ -218,7 +225,11 @@ pub(crate) fn fit_for_tests(
         estimates,
         upper_limits: upper
             .into_iter()
-            .map(|(term, upper)| UpperLimit { term, upper })
+            .map(|(term, upper)| UpperLimit {
+                term,
+                upper,
+                beside_kept: upper,
+            })
             .collect(),
         chi2: 10.0,
         dof: 10,

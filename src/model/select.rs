@@ -240,10 +240,12 @@ pub(crate) fn select_and_fit(
                 .iter()
                 .filter(|e| e.ambiguous_with == Some(Term::ALL[j]))
                 .map(|e| bound_in(with & !(1 << (e.term as usize)), j));
-            let upper = swapped.fold(bound_in(with, j), f64::max);
+            let beside_kept = bound_in(with, j);
+            let upper = swapped.fold(beside_kept, f64::max);
             UpperLimit {
                 term: Term::ALL[j],
                 upper: upper.sqrt(),
+                beside_kept: beside_kept.sqrt(),
             }
         })
         .collect();
