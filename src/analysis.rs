@@ -256,12 +256,11 @@ fn bound_dropped_ramp(a: &mut ChannelAnalysis) {
     let z = crate::stats::norm_isf((1.0 - fit.confidence) / 2.0);
     let upper = test.ramp.abs() + z * test.se;
     if upper.is_finite() {
-        fit.upper_limits
-            .push(crate::model::UpperLimit {
-                term: r,
-                upper,
-                beside_kept: upper,
-            });
+        fit.upper_limits.push(crate::model::UpperLimit {
+            term: r,
+            upper,
+            beside_kept: upper,
+        });
     }
 }
 

@@ -172,7 +172,11 @@ pub fn ramp_free_density(fit: &NoiseFit, fs: f64) -> impl Fn(f64) -> f64 {
 /// power the two trade twice and hid a 200 °/h/h ramp the series showed plainly.
 pub fn ramp_free_coefficients(fit: &NoiseFit) -> Coefficients {
     let mut c = fit.coefficients();
-    for u in fit.upper_limits.iter().filter(|u| u.beside_kept.is_finite()) {
+    for u in fit
+        .upper_limits
+        .iter()
+        .filter(|u| u.beside_kept.is_finite())
+    {
         c.set(u.term, u.beside_kept);
     }
     c.set(Term::RateRamp, 0.0);

@@ -433,3 +433,61 @@ fn a_ramp_that_a_temperature_rise_explains_as_well_is_not_added() {
         .expect("decided beside a constant temperature");
     assert_eq!(d.action, RampAction::Added);
 }
+
+/// A coupling the base fit hides: an accelerometer (N = 1 mg/√Hz, B = 20 µg, K = 1e-5 m/s²/√s)
+/// whose temperature is a smooth 6 °C warm-up (Tc 600 s, no wander), the coupling of 1.5e-3
+/// (m/s²)/°C moving it by about 30σ of 10-s means, 30 min. The base fit takes the drift into its
+/// random walk and ramp, under which the regression on the temperature's increments read t ≈ 1.8
+/// while the model-free test gave p ≈ 1e-6 (found in 6 of 10 such records of an independent
+/// simulator, a false ramp kept in its place); the coupling is now refined and iterated whenever
+/// the model-free test is strong (p < 1e-3), and found with its coefficient. Here behind a
+/// 4th-order 30-Hz filter and 0.06-mg output steps, seeds 90–119: found in 27 of 30 before, a
+/// ramp kept in its place in 2 (seeds 95 and 111); now 29 of 30, no ramp.
+#[test]
+fn a_coupling_hidden_by_the_base_fits_random_walk_is_found() {
+    let c = 1.5e-3;
+    let (mut found, mut ramp_instead) = (0, Vec::new());
+    let seeds = 90..120;
+    for seed in seeds.clone() {
+        let noise = imunoise::model::Coefficients {
+            n: 1e-3,
+            b: 20e-6 * 9.80665,
+            k: 1e-5,
+            ..Default::default()
+        };
+        let spec = json!({ "rate_hz": FS, "duration_s": 1800.0, "seed": seed,
+            "channels": [{ "name": "a", "sensor": "accel", "noise": noise,
+                           "temperature_coefficient": c,
+                           "lowpass": { "corner_hz": 30.0, "order": 4 },
+                           "lsb": 5.985e-4 }],
+            "temperature": { "start_degc": 25.0, "rise_degc": 6.0, "warmup_s": 600.0,
+                             "noise_degc": 0.004 } });
+        let spec: SimSpec = serde_json::from_value(spec).unwrap();
+        let (cols, _) = simulate(&spec).unwrap().into_columns();
+        let o = run(&cols);
+        println!("seed {seed}: {:?}; {:?}", kinds(&o), o.report.rejected);
+        if let Some(Effect::Coupling { fit, .. }) = o
+            .report
+            .steps
+            .iter()
+            .map(|s| &s.effect)
+            .find(|e| e.kind() == "coupling")
+        {
+            found += 1;
+            assert!(
+                (fit.coefficient / c - 1.0).abs() < 0.3,
+                "seed {seed}: {fit:?}"
+            );
+        }
+        let allan = o.allan.as_ref().unwrap();
+        if allan.get(Term::RateRamp).is_some() && !kinds(&o).contains(&"coupling") {
+            ramp_instead.push(seed);
+        }
+    }
+    println!(
+        "found in {found} of {}; a ramp in its place in {ramp_instead:?}",
+        seeds.len()
+    );
+    assert!(found >= 27, "found in {found} of {}", seeds.len());
+    assert!(ramp_instead.is_empty(), "{ramp_instead:?}");
+}
