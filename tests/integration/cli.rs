@@ -754,3 +754,34 @@ fn analyze_with_every_averaging_factor_fits_a_thinned_curve() {
         assert!((v * 50f64.sqrt() - 1.0).abs() < 0.05, "{n_values:?}");
     }
 }
+
+/// `info` describes a file with non-finite samples (it had refused it under the default
+/// `--on-nonfinite error`, which is what a user runs `info` to find out about): exit 0, the count
+/// on the file's line; `--on-nonfinite error` still stops at the row.
+#[test]
+fn info_counts_non_finite_samples_by_default() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut values = noise(5000, 3);
+    values[100] = f64::NAN;
+    values[200] = f64::INFINITY;
+    write_ipc_file(
+        &dir.path().join("nan.arrow"),
+        &batch(&[f64_col("g", values, Some("rad/s"))], Some(50.0)),
+        1000,
+    );
+    let out = run_ok(&["info", "nan.arrow"], dir.path());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let row = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("g "))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(stdout.contains("non-finite"), "{stdout}");
+    assert!(row.split_whitespace().any(|w| w == "2"), "{row}");
+    let stopped = imunoise(
+        &["info", "nan.arrow", "--on-nonfinite", "error"],
+        dir.path(),
+    );
+    assert_eq!(stopped.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&stopped.stderr);
+    assert!(stderr.contains("row 100"), "{stderr}");
+}

@@ -119,6 +119,10 @@ fn every_command_writes_documents_that_match_the_schema() {
         if command == "avar" || command == "analyze" {
             args.extend(["--stat", "oadev,hdev"]);
         }
+        if command == "info" {
+            // `info` counts non-finite samples unless told to stop at them.
+            args.extend(["--on-nonfinite", "error"]);
+        }
         let out = imunoise(&args, dir.path());
         assert_eq!(
             out.status.code(),
