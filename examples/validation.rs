@@ -70,6 +70,11 @@ struct Tally {
     coupling_ratios: Vec<f64>,
     resonance_covered: [usize; 3],
     resonance_ratios: [Vec<f64>; 3],
+    /// Gauss–Markov processes found: how often the 1σ intervals of Tc and σ covered the planted
+    /// values, and the ratios of the estimates to them.
+    gm_found: usize,
+    gm_covered: [usize; 2],
+    gm_ratios: [Vec<f64>; 2],
     /// The resonances are peaks beyond the fit band read off their narrow band.
     resonances_from_bands: bool,
     /// Narrow bands found at a planted (wandering) line: how often the centre's 1σ interval
@@ -650,6 +655,32 @@ fn main() {
                         tally.edge_widths.push(b - a);
                     }
                 }
+                if let imunoise::effects::Effect::GaussMarkov {
+                    tc_s,
+                    tc_lo_s,
+                    tc_hi_s,
+                    sigma,
+                } = &s.effect
+                {
+                    if case.expect == Some("gauss_markov") {
+                        let planted = &case.extra["gauss_markov"][0];
+                        let (tc_t, s_t) = (
+                            planted["tc_s"].as_f64().unwrap_or(f64::NAN),
+                            planted["sigma"].as_f64().unwrap_or(f64::NAN),
+                        );
+                        tally.gm_found += 1;
+                        for (k, (v, lo, hi, t)) in [
+                            (*tc_s, *tc_lo_s, *tc_hi_s, tc_t),
+                            (sigma.value, sigma.lo, sigma.hi, s_t),
+                        ]
+                        .into_iter()
+                        .enumerate()
+                        {
+                            tally.gm_covered[k] += usize::from(lo <= t && t <= hi);
+                            tally.gm_ratios[k].push(v / t);
+                        }
+                    }
+                }
                 if let imunoise::effects::Effect::Resonance {
                     f0_hz,
                     f0_lo,
@@ -972,6 +1003,18 @@ fn main() {
                     pct(tally.settled_covered, tally.settled_found)
                 ));
             }
+        }
+        if tally.gm_found > 0 {
+            let [rt, rs] = &mut tally.gm_ratios;
+            edge_notes.push(format!(
+                "{}: of {} Gauss–Markov processes found, the 1σ interval covers Tc in {}, σ in {}; median ratios to the truth Tc {:.3}, σ {:.3}.",
+                case.name,
+                tally.gm_found,
+                pct(tally.gm_covered[0], tally.gm_found),
+                pct(tally.gm_covered[1], tally.gm_found),
+                median(rt),
+                median(rs)
+            ));
         }
     }
     for n in edge_notes {

@@ -48,7 +48,7 @@ fn stochastic(
 ) -> Option<(Box<dyn EffectShape>, f64, String)> {
     let steps = &a.residual_loop.as_ref()?.steps;
     steps.iter().find_map(|s| match &s.effect {
-        Effect::GaussMarkov { tc_s, sigma } => Some((
+        Effect::GaussMarkov { tc_s, sigma, .. } => Some((
             Box::new(GaussMarkov1 { tc_s: *tc_s }) as Box<dyn EffectShape>,
             sigma.value,
             format!(

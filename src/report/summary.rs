@@ -488,9 +488,16 @@ pub fn effect_line(e: &Effect, units: &EffectUnits) -> String {
             "resonance at {f0_hz:.3} Hz [{f0_lo:.3}, {f0_hi:.3}], Q {q:.1} [{q_lo:.1}, {q_hi:.1}], σ {}",
             v.interval(sigma.value, sigma.lo, sigma.hi)
         ),
-        Effect::GaussMarkov { tc_s, sigma } => format!(
-            "Gauss–Markov process, Tc {} s, σ {}",
+        Effect::GaussMarkov {
+            tc_s,
+            tc_lo_s,
+            tc_hi_s,
+            sigma,
+        } => format!(
+            "Gauss–Markov process, Tc {} s [{}, {}], σ {}",
             sig4(*tc_s),
+            sig4(*tc_lo_s),
+            sig4(*tc_hi_s),
             v.interval(sigma.value, sigma.lo, sigma.hi)
         ),
         Effect::Coupling { aux, fit } => format!(

@@ -319,3 +319,41 @@ fn a_resonance_beyond_the_fit_band_is_measured_not_dismissed() {
         );
     }
 }
+
+/// A strong resonance inside the filter's band (Q 20 at 7 Hz, σ 3e-4 rad/s, about 15× the floor
+/// at its peak; a 2nd-order 30-Hz filter at 100 Hz): the band edge's check on the data must not
+/// read the bands beside the peak as the filter's deficit. It had walked the edge down below the
+/// peak; the resonance's skirt left in the band then passed for a Gauss–Markov process and
+/// excursions, steps and drifts followed. Now the edge stays above the peak and the loop adds the
+/// resonance and nothing else.
+#[test]
+fn a_strong_resonance_does_not_pull_the_band_edge_below_itself() {
+    let filt = LowPassSpec {
+        corner_hz: 26.0,
+        order: 4,
+    };
+    let (f0, q, sigma) = (7.0, 20.0, 3e-4);
+    for seed in [41_001, 41_002, 41_003] {
+        let spec = json!({ "rate_hz": FS, "duration_s": 1800.0, "seed": seed,
+            "channels": [{ "name": "g", "sensor": "gyro", "noise": truth(), "lowpass": filt,
+                "resonances": [{ "f0_hz": f0, "q": q, "sigma": sigma }] }] });
+        let spec: SimSpec = serde_json::from_value(spec).unwrap();
+        let y = simulate(&spec).unwrap().channels.remove(0).samples;
+        let o = close_loop(&y, FS, &[], &config(), None).expect("loop ran");
+        let band = o.report.bandwidth.as_ref().expect("roll-off found");
+        let kinds: Vec<&str> = o.report.steps.iter().map(|s| s.effect.kind()).collect();
+        println!(
+            "seed {seed}: band f ≤ {:.2} Hz; added {kinds:?}",
+            band.fit_max_freq_hz
+        );
+        assert!(
+            band.fit_max_freq_hz > f0 * (1.0 + 1.0 / q),
+            "seed {seed}: {band:?}"
+        );
+        assert_eq!(kinds.len(), 1, "seed {seed}: {kinds:?}");
+        assert!(
+            matches!(kinds[0], "resonance" | "narrowband"),
+            "seed {seed}: {kinds:?}"
+        );
+    }
+}

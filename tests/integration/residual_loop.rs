@@ -97,10 +97,26 @@ fn an_undeclared_gauss_markov_process_is_found() {
     );
     let o = run(&cols);
     assert_eq!(kinds(&o), ["gauss_markov"], "{:?}", o.report.rejected);
-    let Effect::GaussMarkov { tc_s, sigma } = &o.report.steps[0].effect else {
+    let Effect::GaussMarkov {
+        tc_s,
+        tc_lo_s,
+        tc_hi_s,
+        sigma,
+    } = &o.report.steps[0].effect
+    else {
         unreachable!()
     };
     assert!(*tc_s > 2.5 && *tc_s < 10.0, "Tc = {tc_s}");
+    // Its profile interval holds the estimate and is a real range (the grid's steps are 1/8
+    // decade: a Tc the data pin down to a step still gets the interpolated ends).
+    assert!(
+        tc_lo_s < tc_s && tc_s < tc_hi_s,
+        "{tc_lo_s} {tc_s} {tc_hi_s}"
+    );
+    assert!(
+        *tc_lo_s <= 5.0 * 1.5 && *tc_hi_s >= 5.0 / 1.5,
+        "{tc_lo_s} {tc_hi_s}"
+    );
     assert!((sigma.value / 2e-4 - 1.0).abs() < 0.3, "{sigma:?}");
     assert_error_falls(&o, true);
 }

@@ -436,7 +436,7 @@ fn a_gauss_markov_process_and_a_step_together_are_both_found() {
     // seeds 11–16 −17 %…+11 %. Checked: time within the window, size within 25 %.
     assert!((s.time_s - 480.0).abs() <= s.window_s, "{s:?}");
     assert!((s.size / size - 1.0).abs() < 0.25, "{s:?}");
-    let Effect::GaussMarkov { tc_s, sigma } = find(&o, "gauss_markov") else {
+    let Effect::GaussMarkov { tc_s, sigma, .. } = find(&o, "gauss_markov") else {
         unreachable!()
     };
     // Measured: Tc = 7.85 s, σ = 2.485e-4. The loop's Tc grid steps by ×1.73 (…, 4.55, 7.85, …):

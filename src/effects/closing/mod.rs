@@ -194,9 +194,14 @@ pub enum Effect {
         q_hi: f64,
         sigma: EffectEstimate,
     },
-    /// A first-order Gauss–Markov process: correlation time and standard deviation (interval
-    /// from the spectrum fit).
-    GaussMarkov { tc_s: f64, sigma: EffectEstimate },
+    /// A first-order Gauss–Markov process: correlation time with its profile-likelihood interval,
+    /// and standard deviation (its interval joined over that of Tc).
+    GaussMarkov {
+        tc_s: f64,
+        tc_lo_s: f64,
+        tc_hi_s: f64,
+        sigma: EffectEstimate,
+    },
     /// Linear coupling to an aux channel, regressed out.
     Coupling { aux: String, fit: Coupling },
     /// A bias drift the IEEE terms lack (a settling, a curvature), removed.

@@ -385,6 +385,13 @@ pub(super) fn gauss_markov_candidate(
     };
     let mut sigma = sigma_of(best)?;
     let q = norm_isf((1.0 - p) / 2.0).powi(2);
+    // Tc's profile-likelihood interval: the joint score within the χ²₁ quantile of the best,
+    // its ends interpolated between the grid's points (log Tc) and always holding the chosen Tc
+    // (it had none: a Tc read 1.4× the truth was printed as if exact).
+    let trials: Vec<(f64, f64, Option<EffectEstimate>)> =
+        profile.iter().map(|c| (c.tc, c.delta, None)).collect();
+    let (tc_lo_s, tc_hi_s, _) = profile_range(&trials, restricted_best.delta, q, true);
+    let (tc_lo_s, tc_hi_s) = (tc_lo_s.min(tc), tc_hi_s.max(tc));
     for e in profile
         .iter()
         .filter(|c| c.delta <= restricted_best.delta + q)
@@ -432,7 +439,12 @@ pub(super) fn gauss_markov_candidate(
             1.0 / (2.0 * std::f64::consts::PI * tc),
             if best.visible { "" } else { ", below the spectrum's lowest band: the Allan fit decides" }
         ),
-        effect: Effect::GaussMarkov { tc_s: tc, sigma },
+        effect: Effect::GaussMarkov {
+            tc_s: tc,
+            tc_lo_s,
+            tc_hi_s,
+            sigma,
+        },
         apply: Apply::Model(Box::new((Stochastic::GaussMarkov(shape), Some(allan), spectrum))),
     })
 }
