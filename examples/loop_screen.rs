@@ -286,7 +286,7 @@ fn cases() -> Vec<Case> {
         _ => None,
     };
     let gm: Extract = |e, t| match e {
-        Effect::GaussMarkov { tc_s, sigma } => {
+        Effect::GaussMarkov { tc_s, sigma, .. } => {
             let g = &t.gauss_markov[0];
             Some(vec![
                 Param::new("σ", sigma.value, g.sigma, Some((sigma.lo, sigma.hi))),
