@@ -35,7 +35,9 @@ pub mod step;
 mod testutil;
 
 pub use coupling::{fit_coupling, remove_coupling, Coupling};
-pub use narrowband::{intervals_from_parts, measure_narrowband, remove_narrowband, NarrowBand};
+pub use narrowband::{
+    band_kurtosis, intervals_from_parts, measure_narrowband, remove_narrowband, NarrowBand,
+};
 pub use sinusoid::{fit_sinusoid, remove_sinusoid, SineFit};
 pub use spikes::{find_spikes, find_spikes_on_grid, remove_spikes, Spikes};
 pub use stationarity::{split_record, SplitRecord};
