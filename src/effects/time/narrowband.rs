@@ -382,6 +382,34 @@ mod tests {
     use crate::psd::{welch, WelchConfig};
     use crate::sim::rng::Rng;
 
+    /// The band kurtosis of a sinusoid over white noise follows (1.5r² + 6r + 3)/(r + 1)² with r
+    /// the line's power over the noise's in the band, and of white noise alone is 3 within its
+    /// scatter √(24/(W·T)).
+    #[test]
+    fn band_kurtosis_tells_a_line_from_gaussian_noise() {
+        let fs = 100.0;
+        let n = 200_000;
+        let mut rng = Rng::new(5);
+        let noise = rng.gauss_vec(n);
+        let (f_lo, f_hi) = (8.0, 10.0);
+        let gaussian = band_kurtosis(&noise, fs, f_lo, f_hi).unwrap();
+        let scatter = (24.0 / ((f_hi - f_lo) * n as f64 / fs)).sqrt();
+        assert!((gaussian - 3.0).abs() < 3.0 * scatter, "{gaussian}");
+        // In-band noise power: 2 Hz of a one-sided density 2/fs.
+        let in_band = 2.0 / fs * (f_hi - f_lo);
+        for r in [3.0, 15.0] {
+            let amp: f64 = (2.0 * r * in_band).sqrt();
+            let y: Vec<f64> = noise
+                .iter()
+                .enumerate()
+                .map(|(i, v)| v + amp * (std::f64::consts::TAU * 9.0 * i as f64 / fs).sin())
+                .collect();
+            let k = band_kurtosis(&y, fs, f_lo, f_hi).unwrap();
+            let want = (1.5 * r * r + 6.0 * r + 3.0) / ((r + 1.0) * (r + 1.0));
+            assert!((k - want).abs() < 0.05, "r {r}: {k} vs {want}");
+        }
+    }
+
     /// White noise plus a line whose frequency wanders: the excess power is measured within its
     /// interval and removal brings the band back to the floor.
     #[test]
