@@ -438,23 +438,32 @@ impl EffectUnits {
     }
 }
 
+/// `12.500002 Hz [12.499987, 12.500016]`: a frequency and its interval with as many decimals as
+/// tell the ends apart (four at least, nine at most). With four always, a line's interval of
+/// ±15 µHz printed as `12.5000 Hz [12.5000, 12.5000]`, as if it had none.
+fn hz_interval(v: f64, lo: f64, hi: f64) -> String {
+    let spread = (hi - lo) / 2.0;
+    let decimals = if spread > 0.0 && spread.is_finite() {
+        (1 - spread.log10().floor() as i32).clamp(4, 9) as usize
+    } else {
+        4
+    };
+    format!("{v:.decimals$} Hz [{lo:.decimals$}, {hi:.decimals$}]")
+}
+
 /// One line per effect found: what, its parameters with their units, the evidence.
 pub fn effect_line(e: &Effect, units: &EffectUnits) -> String {
     let v = Shown::value(units.value);
     match e {
         Effect::Sinusoid(s) => format!(
-            "line at {:.4} Hz [{:.4}, {:.4}], amplitude (as sampled) {}",
-            s.freq_hz,
-            s.freq_lo,
-            s.freq_hi,
+            "line at {}, amplitude (as sampled) {}",
+            hz_interval(s.freq_hz, s.freq_lo, s.freq_hi),
             v.interval(s.amplitude, s.amplitude_lo, s.amplitude_hi)
         ),
         Effect::Narrowband(nb) => {
             let band = format!(
-                "narrow band (a wandering line or a peak) at {:.4} Hz [{:.4}, {:.4}], width {} Hz [{}, {}], rms {} (power {}; a coherent sinusoid explains {:.0} %)",
-                nb.freq_hz,
-                nb.freq_lo_hz,
-                nb.freq_hi_hz,
+                "narrow band (a wandering line or a peak) at {}, width {} Hz [{}, {}], rms {} (power {}; a coherent sinusoid explains {:.0} %)",
+                hz_interval(nb.freq_hz, nb.freq_lo_hz, nb.freq_hi_hz),
                 sig4(nb.width_hz),
                 sig4(nb.width_lo_hz),
                 sig4(nb.width_hi_hz),
@@ -795,6 +804,21 @@ mod tests {
             value: Some(value),
             others: vec![("temperature".into(), Some(Unit::DegC))],
         }
+    }
+
+    /// A frequency interval gets the decimals that tell its ends apart, four at least.
+    #[test]
+    fn frequency_intervals_show_their_width() {
+        assert_eq!(
+            hz_interval(12.500002, 12.499987, 12.500016),
+            "12.500002 Hz [12.499987, 12.500016]"
+        );
+        assert_eq!(hz_interval(8.91, 8.9, 8.92), "8.9100 Hz [8.9000, 8.9200]");
+        assert_eq!(hz_interval(5.0, 5.0, 5.0), "5.0000 Hz [5.0000, 5.0000]");
+        assert_eq!(
+            hz_interval(5.0, 5.0 - 1e-12, 5.0 + 1e-12),
+            "5.000000000 Hz [5.000000000, 5.000000000]"
+        );
     }
 
     #[test]
