@@ -553,3 +553,40 @@ fn a_widely_wandering_line_is_a_narrow_band_not_a_resonance() {
         );
     }
 }
+
+/// A warm-up of the bias itself (100 °/h, Tc 300 s) beside a temperature channel that warms up
+/// too (6 °C, Tc 600 s) but does not drive it: the loop takes the coupling (a warm-up seen on a
+/// temperature channel is taken for its coupling), and its evidence now says that a drift of the
+/// bias is significant on its own too and that the two are not told apart.
+#[test]
+fn a_coupling_that_stands_for_an_unrelated_warm_up_says_so() {
+    let mut said = 0;
+    for seed in [71, 72, 73] {
+        let noise = crate::support::loop_gyro();
+        let drift = imunoise::model::CoefUnit::DegPerH.to_si(100.0);
+        let spec = json!({ "rate_hz": FS, "duration_s": 1800.0, "seed": seed,
+            "channels": [{ "name": "g", "sensor": "gyro", "noise": noise,
+                "drift": { "exponential": { "amplitude": drift, "tc_s": 300.0 } } }],
+            "temperature": { "start_degc": 25.0, "rise_degc": 6.0, "warmup_s": 600.0,
+                             "noise_degc": 0.004 } });
+        let spec: SimSpec = serde_json::from_value(spec).unwrap();
+        let (cols, _) = simulate(&spec).unwrap().into_columns();
+        let o = run(&cols);
+        println!("seed {seed}: {:?}", kinds(&o));
+        if let Some(s) = o
+            .report
+            .steps
+            .iter()
+            .find(|s| s.effect.kind() == "coupling")
+        {
+            println!("  {}", s.evidence);
+            assert!(
+                s.evidence.contains("not told apart"),
+                "seed {seed}: {}",
+                s.evidence
+            );
+            said += 1;
+        }
+    }
+    assert!(said >= 2, "{said}");
+}
