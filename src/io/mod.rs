@@ -144,6 +144,23 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Recording, InputError>
     if format == Format::Mcap {
         notes.push(mcap::describe(&schema));
     }
+    // A `scale` is a count's worth; on a float column (values already in their unit, as a
+    // converter that kept the metadata writes them) it is applied too, which is rarely meant:
+    // a float gyro with scale 2 had its N doubled with nothing said.
+    for c in &channels {
+        let field = schema.field(c.column);
+        if field.data_type().is_floating() {
+            if let Some(scale) = field.metadata().get("scale") {
+                notes.push(format!(
+                    "{} is stored as floats ({}) and its metadata scale {} multiplies them: a \
+                     scale is meant for integer counts; check the values are not scaled twice",
+                    c.name,
+                    field.data_type(),
+                    scale.trim()
+                ));
+            }
+        }
+    }
     let (time, from_time) = match time {
         Some(spec) => match probe_time(path, format, &schema, &spec, batch_rows)? {
             Some(probe) => {

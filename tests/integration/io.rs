@@ -1140,3 +1140,28 @@ fn corrupt_file_messages_read_well() {
         );
     }
 }
+
+/// A `scale` on a float column is applied, and said: it is meant for integer counts, and a float
+/// gyro with scale 2 had its N doubled with nothing said.
+#[test]
+fn a_scale_on_a_float_column_is_applied_with_a_note() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scaled.arrow");
+    let v = noise(3000, 4);
+    let col = Col {
+        name: "g".into(),
+        array: Arc::new(arrow_array::Float64Array::from(v.clone())) as ArrayRef,
+        meta: vec![("unit", "rad/s".into()), ("scale", "2".into())],
+    };
+    write_ipc_file(&path, &batch(&[col], Some(RATE)), 1000);
+    let rec = io::open(&path, &OpenOptions::default()).unwrap();
+    assert!(
+        rec.notes
+            .iter()
+            .any(|n| n.contains("g is stored as floats") && n.contains("scale 2")),
+        "{:?}",
+        rec.notes
+    );
+    let (data, _) = read_all(&path, &Inputs::default()).unwrap();
+    assert_eq!(data[0][10], 2.0 * v[10]);
+}
