@@ -115,9 +115,8 @@ pub enum InputError {
         this_s: f64,
     },
     #[error(
-        "{path}: column {column:?}, row {row}: timestamp {} s goes back from {} s",
-        seconds(*.this_s),
-        seconds(*.previous_s)
+        "{path}: column {column:?}, row {row}: {}",
+        time_step_text(*.this_s, *.previous_s)
     )]
     NonMonotonicTime {
         path: PathBuf,
@@ -186,6 +185,23 @@ pub enum InputError {
 fn line_text(line: Option<u64>) -> String {
     line.map(|l| format!(" (line {l} of the file)"))
         .unwrap_or_default()
+}
+
+/// What is wrong with a timestamp that does not follow its predecessor: a missing one (null, or
+/// not a number) is said as such, not as "timestamp NaN s goes back".
+fn time_step_text(this_s: f64, previous_s: f64) -> String {
+    if this_s.is_nan() {
+        format!(
+            "the timestamp is missing (null or not a number) after {} s",
+            seconds(previous_s)
+        )
+    } else {
+        format!(
+            "timestamp {} s goes back from {} s",
+            seconds(this_s),
+            seconds(previous_s)
+        )
+    }
 }
 
 /// Seconds since the first sample as a person reads them: to the nanosecond, trailing zeros
@@ -323,7 +339,20 @@ impl InputError {
 
 #[cfg(test)]
 mod tests {
-    use super::seconds;
+    use super::{seconds, time_step_text};
+
+    /// A null timestamp is said to be missing, not to go back.
+    #[test]
+    fn a_missing_timestamp_is_not_said_to_go_back() {
+        assert_eq!(
+            time_step_text(f64::NAN, 1.5),
+            "the timestamp is missing (null or not a number) after 1.5 s"
+        );
+        assert_eq!(
+            time_step_text(0.0, 299.99),
+            "timestamp 0 s goes back from 299.99 s"
+        );
+    }
 
     #[test]
     fn seconds_read_as_a_person_writes_them() {
