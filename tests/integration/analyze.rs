@@ -444,12 +444,30 @@ fn a_ramp_kept_without_the_loop_is_reported() {
     assert!(stderr.contains("ramp  gyro_x:"), "{stderr}");
 }
 
+/// `cols` written as `imu.arrow` (100 Hz) in `dir`, analysed on the CPU into `dir/out`: the text
+/// of its imu.yaml.
+fn imu_yaml_of(dir: &std::path::Path, cols: &[Col]) -> String {
+    let file = dir.join("imu.arrow");
+    write_ipc_file(&file, &batch(cols, Some(100.0)), 8192);
+    run_ok(
+        &[
+            "analyze",
+            file.to_str().unwrap(),
+            "-o",
+            "out",
+            "--backend",
+            "cpu",
+        ],
+        dir,
+    );
+    std::fs::read_to_string(dir.join("out/imu/imu.yaml")).unwrap()
+}
+
 /// imu.yaml with a clipped axis: accel_z (5× the others' noise, clipped at +1σ) is listed with its
 /// quality verdict and is not the sensor's worst axis, and no value in the file is `inf`.
 #[test]
 fn a_clipped_axis_is_not_the_worst_axis_of_imu_yaml() {
     let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("imu.arrow");
     let n = 60_000;
     let (x, y) = (noise(n, 31), noise(n, 32));
     let z: Vec<f64> = noise(n, 33)
@@ -469,19 +487,7 @@ fn a_clipped_axis_is_not_the_worst_axis_of_imu_yaml() {
         ),
         f64_col("accel_z", z, Some("m/s^2")),
     ];
-    write_ipc_file(&file, &batch(&cols, Some(100.0)), 8192);
-    run_ok(
-        &[
-            "analyze",
-            file.to_str().unwrap(),
-            "-o",
-            "out",
-            "--backend",
-            "cpu",
-        ],
-        dir.path(),
-    );
-    let yaml = std::fs::read_to_string(dir.path().join("out/imu/imu.yaml")).unwrap();
+    let yaml = imu_yaml_of(dir.path(), &cols);
     let key = yaml
         .lines()
         .find(|l| l.starts_with("accelerometer_noise_density:"))
@@ -498,7 +504,6 @@ fn a_clipped_axis_is_not_the_worst_axis_of_imu_yaml() {
 #[test]
 fn imu_yaml_writes_no_accelerometer_key_when_every_axis_is_flagged() {
     let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("imu.arrow");
     let n = 60_000;
     let accel = |seed: u64, mean: f64| -> Vec<f64> {
         noise(n, seed).iter().map(|v| mean + 0.01 * v).collect()
@@ -513,19 +518,7 @@ fn imu_yaml_writes_no_accelerometer_key_when_every_axis_is_flagged() {
         f64_col("accel_y", accel(42, -0.2), Some("g")),
         f64_col("accel_z", accel(43, 9.81), Some("g")),
     ];
-    write_ipc_file(&file, &batch(&cols, Some(100.0)), 8192);
-    run_ok(
-        &[
-            "analyze",
-            file.to_str().unwrap(),
-            "-o",
-            "out",
-            "--backend",
-            "cpu",
-        ],
-        dir.path(),
-    );
-    let yaml = std::fs::read_to_string(dir.path().join("out/imu/imu.yaml")).unwrap();
+    let yaml = imu_yaml_of(dir.path(), &cols);
     assert!(
         !yaml.lines().any(|l| l.starts_with("accelerometer_")),
         "{yaml}"

@@ -290,58 +290,39 @@ pub fn remove_narrowband(
     nperseg: usize,
 ) -> Vec<f64> {
     let n = y.len();
-    if n < 4 {
-        return y.to_vec();
-    }
-    let mean = y.iter().sum::<f64>() / n as f64;
-    let mut planner = RealFftPlanner::<f64>::new();
-    let fwd = planner.plan_fft_forward(n);
-    let inv = planner.plan_fft_inverse(n);
-    let mut input: Vec<f64> = y.iter().map(|v| v - mean).collect();
-    let mut spec = fwd.make_output_vec();
-    if fwd.process(&mut input, &mut spec).is_err() {
-        return y.to_vec();
-    }
-    let df = fs / n as f64;
-    let k_lo = ((nb.f_lo_hz / df).floor().max(1.0)) as usize;
-    let k_hi = ((nb.f_hi_hz / df).ceil() as usize).min(spec.len() - 1);
-    // Smoothing over one Welch bin: fs/nperseg = (n/nperseg) record bins.
-    let half = ((n as f64 / nperseg.max(1) as f64) / 2.0).round().max(1.0) as usize;
-    let to_density = 2.0 / (fs * n as f64);
-    let periodogram: Vec<f64> = spec.iter().map(|c| c.norm_sqr() * to_density).collect();
-    let gains: Vec<(usize, f64)> = (k_lo..=k_hi)
-        .map(|k| {
+    let edited = spectrum_edited(y, fs, |spec, df| {
+        let k_lo = ((nb.f_lo_hz / df).floor().max(1.0)) as usize;
+        let k_hi = ((nb.f_hi_hz / df).ceil() as usize).min(spec.len() - 1);
+        // Smoothing over one Welch bin: fs/nperseg = (n/nperseg) record bins.
+        let half = ((n as f64 / nperseg.max(1) as f64) / 2.0).round().max(1.0) as usize;
+        let to_density = 2.0 / (fs * n as f64);
+        let periodogram: Vec<f64> = spec.iter().map(|c| c.norm_sqr() * to_density).collect();
+        for (k, c) in spec.iter_mut().enumerate().take(k_hi + 1).skip(k_lo) {
             let a = k.saturating_sub(half).max(1);
             let b = (k + half).min(periodogram.len() - 1);
             let smooth = periodogram[a..=b].iter().sum::<f64>() / (b - a + 1) as f64;
             let s = model_one_sided(k as f64 * df);
-            let g = if smooth > 0.0 {
-                (s / smooth).min(1.0).sqrt()
-            } else {
-                1.0
-            };
-            (k, g)
-        })
-        .collect();
-    for (k, g) in gains {
-        spec[k] *= g;
+            if smooth > 0.0 {
+                *c *= (s / smooth).min(1.0).sqrt();
+            }
+        }
+    });
+    match edited {
+        Some((out, mean)) => out.iter().map(|v| v + mean).collect(),
+        None => y.to_vec(),
     }
-    let mut out = inv.make_output_vec();
-    if inv.process(&mut spec, &mut out).is_err() {
-        return y.to_vec();
-    }
-    out.iter().map(|v| v / n as f64 + mean).collect()
 }
 
-/// The kurtosis E x⁴/(E x²)² of `y` band-passed to [f_lo, f_hi] (the whole record's FFT, bins
-/// outside the band zeroed): how constant the band's amplitude is. A sinusoid, however its
-/// frequency wanders within the band, has 1.5; Gaussian noise through a resonance 3; a line over
-/// the band's noise floor at power ratio r has (1.5r² + 6r + 3)/(r + 1)² (2.16 at r = 3, 1.68 at
-/// r = 15). Its scatter on Gaussian data is about √(24/(W·T)) for a band W wide over T seconds.
-/// `None` for a band with no bin or no power.
-pub fn band_kurtosis(y: &[f64], fs: f64, f_lo: f64, f_hi: f64) -> Option<f64> {
+/// `y`'s mean removed, its whole-record spectrum (bin width `df`, passed to `edit`) changed by
+/// `edit`, and transformed back: (the series, normalised, without its mean; the mean). `None` for
+/// fewer than 4 samples or a transform that fails.
+fn spectrum_edited(
+    y: &[f64],
+    fs: f64,
+    edit: impl FnOnce(&mut [realfft::num_complex::Complex<f64>], f64),
+) -> Option<(Vec<f64>, f64)> {
     let n = y.len();
-    if n < 4 || !(f_hi > f_lo) {
+    if n < 4 {
         return None;
     }
     let mean = y.iter().sum::<f64>() / n as f64;
@@ -351,29 +332,45 @@ pub fn band_kurtosis(y: &[f64], fs: f64, f_lo: f64, f_hi: f64) -> Option<f64> {
     let mut input: Vec<f64> = y.iter().map(|v| v - mean).collect();
     let mut spec = fwd.make_output_vec();
     fwd.process(&mut input, &mut spec).ok()?;
-    let df = fs / n as f64;
-    let last = spec.len() - 1;
-    let (k_lo, k_hi) = (
-        ((f_lo / df).ceil().max(1.0) as usize).min(last),
-        ((f_hi / df).floor() as usize).min(last),
-    );
-    if k_hi < k_lo {
-        return None;
-    }
-    for (k, c) in spec.iter_mut().enumerate() {
-        if k < k_lo || k > k_hi {
-            *c = realfft::num_complex::Complex::new(0.0, 0.0);
-        }
-    }
+    edit(&mut spec, fs / n as f64);
     let mut out = inv.make_output_vec();
     inv.process(&mut spec, &mut out).ok()?;
+    out.iter_mut().for_each(|v| *v /= n as f64);
+    Some((out, mean))
+}
+
+/// The kurtosis E x⁴/(E x²)² of `y` band-passed to [f_lo, f_hi] (the whole record's FFT, bins
+/// outside the band zeroed): how constant the band's amplitude is. A sinusoid, however its
+/// frequency wanders within the band, has 1.5; Gaussian noise through a resonance 3; a line over
+/// the band's noise floor at power ratio r has (1.5r² + 6r + 3)/(r + 1)² (2.16 at r = 3, 1.68 at
+/// r = 15). Its scatter on Gaussian data is about √(24/(W·T)) for a band W wide over T seconds.
+/// `None` for a band with no bin or no power.
+pub fn band_kurtosis(y: &[f64], fs: f64, f_lo: f64, f_hi: f64) -> Option<f64> {
+    if !(f_hi > f_lo) {
+        return None;
+    }
+    let mut any_bin = false;
+    let (out, _) = spectrum_edited(y, fs, |spec, df| {
+        let last = spec.len() - 1;
+        let k_lo = ((f_lo / df).ceil().max(1.0) as usize).min(last);
+        let k_hi = ((f_hi / df).floor() as usize).min(last);
+        any_bin = k_hi >= k_lo;
+        for (k, c) in spec.iter_mut().enumerate() {
+            if k < k_lo || k > k_hi {
+                *c = realfft::num_complex::Complex::new(0.0, 0.0);
+            }
+        }
+    })?;
+    if !any_bin {
+        return None;
+    }
     let (mut m2, mut m4) = (0.0, 0.0);
     for v in &out {
         let v2 = v * v;
         m2 += v2;
         m4 += v2 * v2;
     }
-    (m2 > 0.0).then(|| m4 * n as f64 / (m2 * m2))
+    (m2 > 0.0).then(|| m4 * out.len() as f64 / (m2 * m2))
 }
 
 #[cfg(test)]
