@@ -809,6 +809,7 @@ fn main() {
                     FitWarning::RivalModel { effect, .. } => format!("rival {effect}"),
                     FitWarning::OutputResolution { .. } => "output resolution".to_string(),
                     FitWarning::HeavyTail { .. } => "heavy tail".to_string(),
+                    FitWarning::CouplingOrWarmUp { .. } => "coupling or warm-up".to_string(),
                 });
             }
             if let Some(path) = &dump {

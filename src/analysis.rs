@@ -256,11 +256,20 @@ fn bound_dropped_ramp(a: &mut ChannelAnalysis) {
     let z = crate::stats::norm_isf((1.0 - fit.confidence) / 2.0);
     let upper = test.ramp.abs() + z * test.se;
     if upper.is_finite() {
-        fit.upper_limits.push(crate::model::UpperLimit {
+        let limit = crate::model::UpperLimit {
             term: r,
             upper,
             beside_kept: upper,
-        });
+        };
+        fit.upper_limits.push(limit);
+        // The combined result was made from the fits before this bound existed: it takes the
+        // bound too (8-h FOG records whose ramp was dropped had R in no table and no limit).
+        let combined = &mut a.combined;
+        if !combined.terms.iter().any(|t| t.term == r)
+            && !combined.limits.iter().any(|u| u.term == r)
+        {
+            combined.limits.push(limit);
+        }
     }
 }
 

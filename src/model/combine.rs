@@ -106,7 +106,8 @@ pub enum FitWarning {
     /// A fitted term alone exceeds the measured Allan variance's 99 % upper bound (shared among
     /// the points the Allan fit used) at `tau_s`, where the curve allows it at most `allowed`:
     /// the fit's value is not the data's (a misfit it could not see, or a term taken from the
-    /// other domain's edge).
+    /// other domain's edge). Where the spectrum fit alone kept it, the term has no combined value
+    /// (an upper limit instead) and this names the reading refused.
     BeyondAllanCurve {
         term: Term,
         fitted: f64,
@@ -142,6 +143,18 @@ pub enum FitWarning {
         n_lo: f64,
         n_hi: Option<f64>,
         angle_q: Option<f64>,
+    },
+    /// The loop kept a coupling to `aux` that also explains a drift of the bias significant on
+    /// its own (`drift_delta_bic`, the coupling's `coupling_delta_bic`): where the aux channel
+    /// only warms up, with no wander the series follows, the bias's own warm-up and one the aux
+    /// channel drives are not told apart, and the coefficient holds only if the drift is the aux
+    /// channel's (a warm-up of the bias beside a warming temperature that does not drive it was
+    /// read as a coupling in 20 of 20 records).
+    CouplingOrWarmUp {
+        aux: String,
+        coefficient: f64,
+        drift_delta_bic: f64,
+        coupling_delta_bic: f64,
     },
     /// The `spikes` samples the loop removed are the far end of a tail continuous with the noise
     /// (`shoulder` samples in the band one σ below the threshold where Gaussian noise puts
@@ -239,6 +252,7 @@ impl FitWarning {
                 },
                 100.0 * super::rival_share(*weight)
             ),
+            FitWarning::CouplingOrWarmUp { .. } => coupling_or_warm_up_line(self),
             FitWarning::HeavyTail { .. } => heavy_tail_line(self, |x| format!("{x:.4e}"), "(SI)"),
             FitWarning::OutputResolution { .. } => {
                 resolution_line(
@@ -251,6 +265,26 @@ impl FitWarning {
             }
         }
     }
+}
+
+/// The [`FitWarning::CouplingOrWarmUp`] sentence (no unit: it names the effect, whose line gives
+/// the coefficient).
+pub fn coupling_or_warm_up_line(w: &FitWarning) -> String {
+    let FitWarning::CouplingOrWarmUp {
+        aux,
+        drift_delta_bic,
+        coupling_delta_bic,
+        ..
+    } = w
+    else {
+        return w.describe();
+    };
+    format!(
+        "the coupling to {aux} also stands for a drift of the bias that is significant on its own \
+         (ΔBIC {drift_delta_bic:.1}, the coupling's {coupling_delta_bic:.1}): where {aux} only \
+         warms up, with no wander the series follows, the bias's own warm-up and one {aux} drives \
+         are not told apart, and the coefficient holds only if the drift is {aux}'s"
+    )
 }
 
 /// The [`FitWarning::HeavyTail`] sentence, with N's values written by `n` in `unit`.
@@ -472,6 +506,22 @@ pub fn combine(
                 } else {
                     (Domain::Spectrum, allan)
                 };
+                // Kept by one fit only, at a value the measured Allan curve rules out (the term
+                // alone above its 99 % upper bound): the other fit, which sees the curve, did not
+                // keep it, and the curve forbids this reading, so neither determines the term.
+                // It is an upper limit, with the warning that names the reading refused (an 8-h
+                // FOG record's spectrum kept K = 4.65 °/h/√h on a gyro with none, the curve
+                // allowing 0.024 at τ = 2621 s, and the combined K and imu.yaml took it).
+                let refused = impossible(term, e.value).filter(|_| domain == Domain::Spectrum);
+                if let Some((allowed, tau_s)) = refused {
+                    warnings.push(FitWarning::BeyondAllanCurve {
+                        term,
+                        fitted: e.value,
+                        allowed,
+                        tau_s,
+                    });
+                    continue;
+                }
                 let mut c = pick(e, domain);
                 // Against the value, not the interval's lower end: an ambiguous term's interval
                 // reaches down to where the neighbour's model puts it, 0 where that model weighs
@@ -1270,7 +1320,26 @@ mod tests {
         assert!(c.get(k).is_none(), "{:?}", c.get(k));
         let limit = c.limit(k).unwrap();
         assert!(limit < 0.5, "{limit}");
-        // Kept clearly beyond it: kept, with a warning.
+        // Kept clearly by the spectrum alone beyond it, the Allan fit leaving K out: no answer
+        // either (the fit that sees the curve did not keep it), a limit from the Allan fit, and
+        // the warning that names the reading refused.
+        let a = fitted_from_the_start(fit(
+            Domain::Allan,
+            vec![est(Term::RandomWalk, 0.1, 0.01)],
+            vec![(k, 1e-3)],
+        ));
+        let s = fit(
+            Domain::Spectrum,
+            vec![est(Term::RandomWalk, 0.1, 0.01), est(k, 0.5, 0.2)],
+            vec![],
+        );
+        let c = combine(Some(&a), Some(&s), Some(&dev));
+        assert!(c.get(k).is_none(), "{:?}", c.get(k));
+        assert_eq!(c.limit(k), Some(1e-3));
+        assert!(c.warnings.iter().any(
+            |w| matches!(w, FitWarning::BeyondAllanCurve { term, fitted, .. } if *term == k && *fitted == 0.5)
+        ));
+        // Kept clearly beyond it by the Allan fit alone: kept, with a warning.
         let a = fitted_from_the_start(fit(
             Domain::Allan,
             vec![est(Term::RandomWalk, 0.1, 0.01), est(k, 0.5, 0.6)],

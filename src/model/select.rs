@@ -24,7 +24,7 @@
 //! that was kept only where its noise made it look large. The chosen subset's own fit (its
 //! coefficients, model curve and residuals) is what the report plots and tests for misfit.
 
-use super::average::mixture_quantile;
+use super::average::mixture_interval;
 use super::fit::{members, Mask, Problem, Weights, BASE, EFFECT, TERMS};
 use super::interval::coefficient_interval;
 use super::result::Domain;
@@ -393,7 +393,9 @@ fn zero_share(j: usize, rivals: &[Rival]) -> f64 {
 /// weight of 10–50 %, and a single skewed interval about the mean never reaches down there. On
 /// 1000 clean 30-min records the spectrum fit kept K (its regime below the lowest band) in 194,
 /// 7.0× the truth, 188 of them flagged as not told from B, and the moment-matched 1σ interval
-/// covered the truth in none.
+/// covered the truth in none. Where the readings without the term weigh so much that the upper
+/// quantile falls to the mean, the interval is [0, the upper end of the readings with it]
+/// ([`mixture_interval`]).
 fn averaged_interval(
     mean: f64,
     chosen: f64,
@@ -421,10 +423,8 @@ fn averaged_interval(
         };
         (r.weight, c, v)
     }));
-    let q = (1.0 - p) / 2.0;
-    let lo = mixture_quantile(&components, q).min(mean).sqrt();
-    let hi = mixture_quantile(&components, 1.0 - q).max(mean).sqrt();
-    (lo, hi, edf)
+    let (lo, hi) = mixture_interval(&components, mean, (1.0 - p) / 2.0);
+    (lo.sqrt(), hi.sqrt(), edf)
 }
 
 /// The chosen `mask`, with a rate ramp the data cannot tell from a rate random walk replaced by
@@ -581,7 +581,9 @@ mod tests {
     /// The mixture interval: with no rival it is the chosen reading's own; a rival that lacks the
     /// term with more than the interval's lower tail (16 % at 1σ) of the weight takes the lower
     /// end to 0, with less it lowers it but not to 0; the upper end stays at or above the
-    /// averaged value.
+    /// averaged value, and where the rival weighs so much that the mixture's upper quantile falls
+    /// below it, it is the chosen reading's own (the interval holds the term whether it is there
+    /// or not).
     #[test]
     fn a_rival_without_the_term_reaches_down_to_zero_in_proportion_to_its_weight() {
         let (c, var, j, p) = (4.0, 0.5, 3, 0.682_689_492);
@@ -598,6 +600,13 @@ mod tests {
         let (lo, hi, _) = averaged_interval(mean, c, var, j, &heavy, 1.0, p);
         assert_eq!(lo, 0.0);
         assert!(hi >= mean.sqrt() && hi < alone.1, "{hi} {alone:?}");
+        // 90 % of the weight at 0: the mixture's upper quantile is 0, below the mean; the
+        // interval is [0, the chosen reading's upper end], not [0, the mean].
+        let most = [lacking(9.0)];
+        let mean = averaged(c, j, &most);
+        let (lo, hi, _) = averaged_interval(mean, c, var, j, &most, 1.0, p);
+        assert_eq!(lo, 0.0);
+        assert!((hi / alone.1 - 1.0).abs() < 1e-9, "{hi} {alone:?}");
         // 5 % of the weight at 0: the lower end comes down, not to 0.
         let light = [lacking(0.0526)];
         let mean = averaged(c, j, &light);

@@ -643,6 +643,7 @@ pub fn warning_line(w: &FitWarning, sensor: Sensor) -> String {
                  worst at {range}; intervals widened ×{inflation:.2}"
             )
         }
+        FitWarning::CouplingOrWarmUp { .. } => crate::model::coupling_or_warm_up_line(w),
         FitWarning::HeavyTail { .. } => {
             let [_, u, _] = units_of(sensor, Term::RandomWalk);
             crate::model::heavy_tail_line(w, |x| sig4(u.from_si(x)), &u.pretty())
@@ -833,6 +834,7 @@ mod tests {
             explained_share: 0.2,
             scale_s: 1.0,
             n_eff: 100,
+            explains_drift: None,
         };
         let e = Effect::Coupling {
             aux: "temperature".into(),

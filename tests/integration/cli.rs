@@ -24,7 +24,7 @@ fn info_on_the_sample_reports_rate_units_channels_and_duration() {
         String::from_utf8_lossy(&out.stderr)
     );
     let doc = json_of(&out);
-    assert_eq!(doc["schema_version"], 8);
+    assert_eq!(doc["schema_version"], 9);
     assert_eq!(doc["command"], "info");
     let file = &doc["files"][0];
     assert_eq!(file["status"], "ok");
@@ -527,7 +527,7 @@ fn analyze_labels_every_coefficient_amplitude_and_legend_with_its_unit() {
         // The coupling of the gyro to the temperature, in both unit systems.
         let coupling = text
             .lines()
-            .find(|l| l.contains("coupling to temperature"))
+            .find(|l| l.contains("coupling to temperature:"))
             .unwrap_or_else(|| panic!("no coupling in {text}"));
         assert!(
             coupling.contains(" (rad/s)/K (") && coupling.contains(" (°/h)/°C)"),

@@ -2,7 +2,7 @@
 //! named and fitted, and the error falls; pure IEEE-model data get nothing added.
 
 use imunoise::effects::{close_loop, AuxSeries, Effect, LoopConfig, LoopOutcome};
-use imunoise::model::{GaussMarkov, Term};
+use imunoise::model::{FitWarning, GaussMarkov, Term};
 use imunoise::sim::{simulate, SimSpec};
 use serde_json::json;
 
@@ -585,6 +585,18 @@ fn a_coupling_that_stands_for_an_unrelated_warm_up_says_so() {
                 "seed {seed}: {}",
                 s.evidence
             );
+            // And the channel's warnings say it, where stderr and the fleet table show them.
+            let warned = o.report.warnings().into_iter().find_map(|w| match w {
+                FitWarning::CouplingOrWarmUp {
+                    aux,
+                    drift_delta_bic,
+                    ..
+                } => Some((aux, drift_delta_bic)),
+                _ => None,
+            });
+            let (aux, drift_delta_bic) = warned.expect("a coupling_or_warm_up warning");
+            assert_eq!(aux, "temperature");
+            assert!(drift_delta_bic < -6.0, "{drift_delta_bic}");
             said += 1;
         }
     }

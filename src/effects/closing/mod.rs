@@ -339,7 +339,8 @@ pub struct LoopReport {
 
 impl LoopReport {
     /// What the report must say about the loop's own limits: that it stopped at [`MAX_STEPS`],
-    /// that a [`Rival`] model's readings are averaged into the coefficients.
+    /// that a [`Rival`] model's readings are averaged into the coefficients, that a coupling it
+    /// kept may be a warm-up of the bias's own.
     pub fn warnings(&self) -> Vec<FitWarning> {
         let limit = (self.steps.len() >= MAX_STEPS)
             .then_some(FitWarning::LoopLimitReached { limit: MAX_STEPS });
@@ -353,7 +354,19 @@ impl LoopReport {
             weight: r.weight,
             evidence: r.evidence.clone(),
         });
-        limit.into_iter().chain(rival).collect()
+        let warm_up = self.steps.iter().filter_map(|s| match &s.effect {
+            Effect::Coupling { aux, fit } => {
+                fit.explains_drift
+                    .map(|drift_delta_bic| FitWarning::CouplingOrWarmUp {
+                        aux: aux.clone(),
+                        coefficient: fit.coefficient,
+                        drift_delta_bic,
+                        coupling_delta_bic: s.delta_bic,
+                    })
+            }
+            _ => None,
+        });
+        limit.into_iter().chain(rival).chain(warm_up).collect()
     }
 
     /// The [`FitWarning::HeavyTail`] of a loop that removed spikes ending a tail continuous with

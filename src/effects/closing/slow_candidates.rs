@@ -239,11 +239,16 @@ pub(super) fn slow_candidates<'a>(
         // records, with nothing to say the coefficient rests on that reading): the coupling's
         // evidence says so, with both scores (the drift's under the base fit, the coupling's
         // refined).
-        if d.veto.is_some() {
+        // Not where the coupling still holds once the drift is taken out (the series follows
+        // the aux channel's wander, or its warm-up's own shape): then the data tell the two apart.
+        if d.veto.is_some() && !coupling_beyond_drift(d, &detected, y, fs, &density, p) {
             let coupling = out
                 .iter_mut()
                 .filter(|c| matches!(c.effect, Effect::Coupling { .. }))
                 .min_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+            // The same is a warning of the channel's ([`FitWarning::CouplingOrWarmUp`]) once
+            // the coupling is kept, so that stderr and the fleet table carry it, not only the
+            // effect's evidence.
             if let Some(c) = coupling {
                 c.evidence.push_str(&format!(
                     "; a drift of the bias is significant on its own too (ΔBIC {:.1} against \
@@ -253,6 +258,9 @@ pub(super) fn slow_candidates<'a>(
                      if the drift is the temperature's",
                     d.delta_bic, c.delta_bic
                 ));
+                if let Effect::Coupling { fit, .. } = &mut c.effect {
+                    fit.explains_drift = Some(d.delta_bic);
+                }
             }
         }
     }
@@ -282,6 +290,34 @@ pub(super) fn slow_candidates<'a>(
         NoiseK::Guarded,
     ));
     out
+}
+
+/// Whether the strongest detected coupling is still significant (family-wise p below
+/// [`DETECTION_P`]) in `y` with the drift `candidate` removed: the converse of
+/// [`explained_by_coupling`]. A coupling that holds only through the warm-up both series share is
+/// not told from a warm-up of the bias's own; one that the series' following of the aux
+/// channel's wander (or the warm-up's own shape, where it differs from the drift's) carries is.
+fn coupling_beyond_drift(
+    candidate: &Candidate,
+    detected: &[(&str, &[f64], Coupling)],
+    y: &[f64],
+    fs: f64,
+    density: Density<'_>,
+    p: f64,
+) -> bool {
+    let Effect::Drift(drift) = &candidate.effect else {
+        return false;
+    };
+    let Some((_, samples, _)) = detected
+        .iter()
+        .min_by(|a, b| a.2.p_value.total_cmp(&b.2.p_value))
+    else {
+        return false;
+    };
+    let mut without = y.to_vec();
+    remove_drift(&mut without, fs, drift);
+    coupling_under_model(&without, samples, fs, density, 1, p)
+        .is_some_and(|c| c.p_value < DETECTION_P)
 }
 
 /// Why a drift `candidate` may not be added: a coupling of `detected` (strong enough to be added

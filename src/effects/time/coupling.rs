@@ -59,6 +59,12 @@ pub struct Coupling {
     pub scale_s: f64,
     /// Increments at the scale of the best evidence: the effective sample count.
     pub n_eff: usize,
+    /// ΔBIC of a drift of the bias that is significant on its own and that this coupling
+    /// explains (the loop then takes the coupling and vetoes the drift): where the aux channel
+    /// only warms up, with no wander the series follows, a warm-up of the bias and the aux
+    /// channel's are not told apart, and [`crate::model::FitWarning::CouplingOrWarmUp`] says so.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub explains_drift: Option<f64>,
 }
 
 struct ScaleFit {
@@ -125,6 +131,7 @@ pub fn fit_coupling(y: &[f64], aux: &[f64], rate_hz: f64, p: f64) -> Option<Coup
         explained_share: share,
         scale_s: est.s as f64 / rate_hz,
         n_eff,
+        explains_drift: None,
     })
 }
 
