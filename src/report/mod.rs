@@ -358,6 +358,38 @@ pub fn write_json(path: &Path, doc: &Value) -> Result<(), OutputError> {
     write_atomically(path, |out| write_json_layout(out, doc))
 }
 
+/// The file-name part of a channel's plots: its name with every character other than letters,
+/// digits, `-`, `_` and `.` replaced by `_`, and where two channels named in `all` (every channel
+/// plotted) come out alike, its
+/// position among them appended. A ROS export's `field.angular_velocity.x` once lost its `.x` to
+/// the extension, so that the three axes' plots (and the two kinds) overwrote one another, and two
+/// channels writing one file at once failed the run; a `/` in a name would have made a folder.
+pub fn plot_name<'a>(channel: &str, all: impl IntoIterator<Item = &'a str>) -> String {
+    let clean = |name: &str| -> String {
+        let s: String = name
+            .chars()
+            .map(|c| {
+                if c.is_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        if s.is_empty() || s.starts_with('.') {
+            format!("_{s}")
+        } else {
+            s
+        }
+    };
+    let mine = clean(channel);
+    let alike: Vec<&str> = all.into_iter().filter(|c| clean(c) == mine).collect();
+    match alike.iter().position(|c| *c == channel) {
+        Some(i) if alike.len() > 1 => format!("{mine}_{}", i + 1),
+        _ => mine,
+    }
+}
+
 /// Writes the plots of every analysed channel of `r` into `folder` as SVG and PNG:
 /// `<channel>_avar.svg|png` and `<channel>_psd.svg|png`. Channels are drawn in parallel: the
 /// rasterising and PNG compression of a 6-channel file's twelve figures took a third of a second
@@ -388,14 +420,19 @@ pub fn write_plots(folder: &Path, r: &FileResult) -> Result<Vec<PathBuf>, Output
                 figures.push(("psd", psd_figure(a, p, unit)));
             }
             for (what, fig) in figures {
-                let stem = folder.join(format!("{}_{what}", a.channel));
+                let path = |ext: &str| {
+                    folder.join(format!(
+                        "{}_{what}.{ext}",
+                        plot_name(&a.channel, analysis.iter().map(|c| c.channel.as_str()))
+                    ))
+                };
                 let svg = fig.to_svg();
-                write_atomically(&stem.with_extension("svg"), |w| w.write_all(svg.as_bytes()))?;
+                write_atomically(&path("svg"), |w| w.write_all(svg.as_bytes()))?;
                 let png = fig
                     .to_png()
-                    .map_err(|e| OutputError::new(&stem.with_extension("png"), e))?;
-                write_atomically(&stem.with_extension("png"), |w| w.write_all(&png))?;
-                written.extend([stem.with_extension("svg"), stem.with_extension("png")]);
+                    .map_err(|e| OutputError::new(&path("png"), e))?;
+                write_atomically(&path("png"), |w| w.write_all(&png))?;
+                written.extend([path("svg"), path("png")]);
             }
             Ok(written)
         })
@@ -405,4 +442,27 @@ pub fn write_plots(folder: &Path, r: &FileResult) -> Result<Vec<PathBuf>, Output
         all.extend(r?);
     }
     Ok(all)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::plot_name;
+
+    /// A ROS export's dotted names keep every part; a `/` or a space does not make a folder or
+    /// an awkward name; two names that clean alike are told apart by their position.
+    #[test]
+    fn every_channel_gets_its_own_plot_files() {
+        let ros = [
+            "field.angular_velocity.x",
+            "field.angular_velocity.y",
+            "field.linear_acceleration.x",
+        ];
+        let names: Vec<String> = ros.iter().map(|c| plot_name(c, ros)).collect();
+        assert_eq!(names, ros);
+        let odd = ["imu/gyro x", "imu_gyro_x", ".hidden", ""];
+        assert_eq!(plot_name("imu/gyro x", odd), "imu_gyro_x_1");
+        assert_eq!(plot_name("imu_gyro_x", odd), "imu_gyro_x_2");
+        assert_eq!(plot_name(".hidden", odd), "_.hidden");
+        assert_eq!(plot_name("", odd), "_");
+    }
 }
