@@ -15,7 +15,7 @@ use crate::avar::{AvarError, Confidence, Statistic, TauGrid};
 use crate::effects::{AuxSeries, LoopConfig};
 use crate::estimate::{Backend, Samples};
 use crate::io::{self, InputError, OpenOptions, Recording};
-use crate::model::{FitOptions, Sensor};
+use crate::model::{FitOptions, FitWarning, Sensor};
 use crate::psd::{log_bin, PsdError, WelchPlan};
 use crate::quality::{Cleaner, QualityOptions, QualityReport, SampleChunk};
 use crate::units::Kind;
@@ -456,13 +456,34 @@ fn fit_channels(
             })
         })
         .collect();
+    // A record in which the sensor moved is not one of its noise: every channel says so, and
+    // the residual loop, which would read the motion as steps, excursions and lines (minutes on
+    // one channel), is not run (see [`crate::quality::motion`]). The first channel in file order
+    // that moved is named.
+    let moved = inputs
+        .par_iter()
+        .map(|i| crate::quality::motion::motion(i.samples, i.rate_hz, i.sensor).map(|m| (i, m)))
+        .collect::<Vec<_>>()
+        .into_iter()
+        .flatten()
+        .next()
+        .map(|(i, m)| FitWarning::NotStatic {
+            channel: i.psd.channel.clone(),
+            sensor: i.sensor,
+            from_s: m.from_s,
+            to_s: m.to_s,
+            largest_jump: m.largest_jump,
+            jumps: m.jumps,
+        });
+    let loop_cfg = if moved.is_some() { None } else { loop_cfg };
     let of = inputs.len();
     let done = AtomicUsize::new(0);
     progress.fitted(0, of);
     inputs
         .into_par_iter()
         .map(|input| {
-            let a = analysis::analyze_channel(input, &aux, opts, loop_cfg);
+            let mut a = analysis::analyze_channel(input, &aux, opts, loop_cfg);
+            a.combined.warnings.extend(moved.clone());
             progress.fitted(done.fetch_add(1, Ordering::SeqCst) + 1, of);
             a
         })

@@ -144,6 +144,18 @@ pub enum FitWarning {
         n_hi: Option<f64>,
         angle_q: Option<f64>,
     },
+    /// The record is not static: `channel`'s means over 1 s jump by up to `largest_jump` (SI),
+    /// `jumps` times between `from_s` and `to_s` ([`crate::quality::motion`]). The IEEE model
+    /// describes a sensor at rest, so the coefficients are not its noise; the residual loop was
+    /// not run on any channel of the record.
+    NotStatic {
+        channel: String,
+        sensor: super::Sensor,
+        from_s: f64,
+        to_s: f64,
+        largest_jump: f64,
+        jumps: usize,
+    },
     /// The loop kept a coupling to `aux` that also explains a drift of the bias significant on
     /// its own (`drift_delta_bic`, the coupling's `coupling_delta_bic`): where the aux channel
     /// only warms up, with no wander the series follows, the bias's own warm-up and one the aux
@@ -253,6 +265,9 @@ impl FitWarning {
                 100.0 * super::rival_share(*weight)
             ),
             FitWarning::CouplingOrWarmUp { .. } => coupling_or_warm_up_line(self),
+            FitWarning::NotStatic { largest_jump, .. } => {
+                not_static_line(self, &format!("{largest_jump:.4e} (SI)"))
+            }
             FitWarning::HeavyTail { .. } => heavy_tail_line(self, |x| format!("{x:.4e}"), "(SI)"),
             FitWarning::OutputResolution { .. } => {
                 resolution_line(
@@ -265,6 +280,27 @@ impl FitWarning {
             }
         }
     }
+}
+
+/// The [`FitWarning::NotStatic`] sentence, with the largest jump written as `jump`.
+pub fn not_static_line(w: &FitWarning, jump: &str) -> String {
+    let FitWarning::NotStatic {
+        channel,
+        from_s,
+        to_s,
+        jumps,
+        ..
+    } = w
+    else {
+        return w.describe();
+    };
+    format!(
+        "the record is not static: the 1-s means of {channel} jump by up to {jump} ({jumps} \
+         jump{} between {from_s:.0} s and {to_s:.0} s), as a sensor turned, tilted or carried \
+         does: the noise model describes a sensor at rest, so these coefficients are not its \
+         noise, and the residual loop was not run; analyse a stretch at rest (cut the record)",
+        if *jumps == 1 { "" } else { "s" }
+    )
 }
 
 /// The [`FitWarning::CouplingOrWarmUp`] sentence (no unit: it names the effect, whose line gives

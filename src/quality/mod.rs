@@ -7,6 +7,7 @@
 //! the [`QualityReport`].
 
 mod clean;
+pub mod motion;
 mod stats;
 
 use std::fmt;

@@ -73,6 +73,7 @@ pub fn imu_yaml(
     analysis: &[ChannelAnalysis],
     quality: &QualityReport,
 ) -> String {
+    // A quality verdict, or a record in which the sensor moved: its numbers are not its noise.
     let flagged = |channel: &str| {
         quality
             .channels
@@ -80,6 +81,19 @@ pub fn imu_yaml(
             .find(|c| c.name == channel)
             .and_then(|c| c.verdicts.first())
             .map(|v| v.describe())
+            .or_else(|| {
+                analysis
+                    .iter()
+                    .filter(|a| a.channel == channel)
+                    .flat_map(|a| &a.combined.warnings)
+                    .find(|w| matches!(w, FitWarning::NotStatic { .. }))
+                    .map(|w| match w {
+                        FitWarning::NotStatic { channel, .. } => {
+                            format!("not static: {channel} moved")
+                        }
+                        _ => String::new(),
+                    })
+            })
     };
     let mut out = String::new();
     let _ = writeln!(out, "{} {}", KALIBR_HEADER, env!("CARGO_PKG_VERSION"));
@@ -182,6 +196,8 @@ pub fn imu_yaml(
         let _ = writeln!(out, "{k}");
     }
     let _ = writeln!(out, "rostopic: {topic}");
-    let _ = writeln!(out, "update_rate: {rate_hz:?}");
+    // Kalibr reads the nominal rate: a rate measured from jittered stamps (199.99999998) is given
+    // to a millionth of a hertz.
+    let _ = writeln!(out, "update_rate: {:?}", (rate_hz * 1e6).round() / 1e6);
     out
 }

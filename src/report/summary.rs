@@ -644,6 +644,26 @@ pub fn warning_line(w: &FitWarning, sensor: Sensor) -> String {
             )
         }
         FitWarning::CouplingOrWarmUp { .. } => crate::model::coupling_or_warm_up_line(w),
+        FitWarning::NotStatic {
+            sensor: moving,
+            largest_jump,
+            ..
+        } => {
+            // In the moving channel's unit: rad/s and °/s, m/s² and g.
+            let jump = match moving {
+                Sensor::Gyro => format!(
+                    "{} rad/s ({} °/s)",
+                    sig4(*largest_jump),
+                    sig4(largest_jump.to_degrees())
+                ),
+                Sensor::Accel => format!(
+                    "{} m/s² ({} g)",
+                    sig4(*largest_jump),
+                    sig4(largest_jump / crate::units::STANDARD_GRAVITY)
+                ),
+            };
+            crate::model::not_static_line(w, &jump)
+        }
         FitWarning::HeavyTail { .. } => {
             let [_, u, _] = units_of(sensor, Term::RandomWalk);
             crate::model::heavy_tail_line(w, |x| sig4(u.from_si(x)), &u.pretty())

@@ -535,3 +535,83 @@ fn imu_yaml_writes_no_accelerometer_key_when_every_axis_is_flagged() {
         "{yaml}"
     );
 }
+
+/// A record in which the sensor was turned (1 °/s about x for 60 s, then back, mid-record; the
+/// accelerometer's y axis tilts with it) is not one of its noise: every channel carries the
+/// `not_static` warning naming the gyro, the residual loop is not run, and imu.yaml writes no
+/// key. The same record at rest gets no such warning.
+#[test]
+fn a_record_in_which_the_sensor_moved_says_so_on_every_channel() {
+    let (fs, n) = (100.0, 60_000);
+    let rate = 1f64.to_radians();
+    let g = 9.80665;
+    let record = |turn: bool| {
+        let mut angle = 0.0;
+        let mut gx = Vec::with_capacity(n);
+        let mut ay = Vec::with_capacity(n);
+        let (wn, an) = (noise(n, 5), noise(n, 6));
+        for i in 0..n {
+            let t = i as f64 / fs;
+            let w = match t {
+                _ if turn && (300.0..360.0).contains(&t) => rate,
+                _ if turn && (360.0..420.0).contains(&t) => -rate,
+                _ => 0.0,
+            };
+            angle += w / fs;
+            gx.push(1e-3 + w + 2e-3 * wn[i]);
+            ay.push(g * f64::sin(angle) + 0.02 * an[i]);
+        }
+        (gx, ay)
+    };
+    for turn in [true, false] {
+        let dir = tempfile::tempdir().unwrap();
+        let (gx, ay) = record(turn);
+        write_csv(
+            &dir.path().join("r.csv"),
+            &[("gx", Some("rad/s")), ("ay", Some("m/s^2"))],
+            &[gx, ay],
+        );
+        let out = run_ok(
+            &[
+                "analyze",
+                "r.csv",
+                "--rate",
+                "100",
+                "-o",
+                "out",
+                "--backend",
+                "cpu",
+            ],
+            dir.path(),
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let report: Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join("out/report.json")).unwrap(),
+        )
+        .unwrap();
+        for channel in ["gx", "ay"] {
+            let w = combined_warning(&report, channel, "not_static");
+            let a = channel_analysis(&report, channel);
+            if turn {
+                let w = w.unwrap_or_else(|| panic!("{channel}: no not_static in {stderr}"));
+                assert_eq!(w["channel"], "gx");
+                let (from, to) = (w["from_s"].as_f64().unwrap(), w["to_s"].as_f64().unwrap());
+                assert!(
+                    (from - 300.0).abs() <= 1.0 && (to - 420.0).abs() <= 1.0,
+                    "{w}"
+                );
+                assert!(a["residual_loop"].is_null(), "{channel}: the loop ran");
+            } else {
+                assert!(w.is_none(), "{channel}: {w:?}");
+            }
+        }
+        let yaml = std::fs::read_to_string(dir.path().join("out/r/imu.yaml")).unwrap();
+        let written = yaml.lines().filter(|l| l.starts_with("gyroscope_")).count();
+        assert_eq!(written, if turn { 0 } else { 2 }, "{yaml}");
+        assert_eq!(
+            stderr.contains("the record is not static"),
+            turn,
+            "{stderr}"
+        );
+    }
+}
