@@ -243,6 +243,12 @@ pub struct InputArgs {
     #[arg(long, value_name = "POLICY")]
     pub on_gap: Option<String>,
 
+    /// What to do with a row whose timestamp repeats the previous row's (a message published
+    /// twice): error (stop, naming the row), drop (keep the first, count the others). Default:
+    /// error, except for `info`, which counts them (drop).
+    #[arg(long, value_name = "POLICY")]
+    pub on_duplicate: Option<String>,
+
     /// MCAP files: the sensor_msgs/msg/Imu topic to read (needed when a file has several; the error
     /// lists them). Temperature topics join as channels. An error for other formats.
     #[arg(long, value_name = "TOPIC")]

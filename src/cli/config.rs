@@ -212,6 +212,12 @@ fn inputs(
             .unwrap_or(gap_default)
             .parse()
             .map_err(|e| usage(format!("--on-gap: {e}")))?,
+        duplicates: a
+            .on_duplicate
+            .as_deref()
+            .unwrap_or(if describing { "drop" } else { "error" })
+            .parse()
+            .map_err(|e| usage(format!("--on-duplicate: {e}")))?,
     };
     if a.no_time && quality.gaps == imunoise::quality::GapPolicy::Fill {
         return Err(usage(
@@ -237,7 +243,8 @@ fn inputs(
         json!({
             "channels": a.channels, "rate_hz": a.rate, "units": a.units, "kinds": a.kinds,
             "time_column": a.time_column, "no_time": a.no_time, "time_unit": a.time_unit,
-            "on_nonfinite": quality.nonfinite, "on_gap": quality.gaps, "topic": a.topic,
+            "on_nonfinite": quality.nonfinite, "on_gap": quality.gaps,
+            "on_duplicate": quality.duplicates, "topic": a.topic,
         }),
     );
     Ok(Inputs {

@@ -124,6 +124,12 @@ fn summary_line(r: &FileResult) -> String {
             count(q.dropped_rows, "row")
         ));
     }
+    if q.duplicate_rows > 0 {
+        notes.push(format!(
+            "{} repeating the previous timestamp dropped",
+            count(q.duplicate_rows, "row")
+        ));
+    }
     let notes = if notes.is_empty() {
         String::new()
     } else {

@@ -107,7 +107,7 @@ pub enum InputError {
         row: u64,
         value: String,
     },
-    #[error("{path}: column {column:?}, row {row}: timestamp {} s repeats the previous one", seconds(*.this_s))]
+    #[error("{path}: column {column:?}, row {row}: timestamp {} s (from the first) repeats the previous one; use --on-duplicate drop to keep the first of each", seconds(*.this_s))]
     DuplicateTimestamp {
         path: PathBuf,
         column: String,

@@ -542,22 +542,6 @@ pub fn combine(
                 } else {
                     (Domain::Spectrum, allan)
                 };
-                // Kept by one fit only, at a value the measured Allan curve rules out (the term
-                // alone above its 99 % upper bound): the other fit, which sees the curve, did not
-                // keep it, and the curve forbids this reading, so neither determines the term.
-                // It is an upper limit, with the warning that names the reading refused (an 8-h
-                // FOG record's spectrum kept K = 4.65 °/h/√h on a gyro with none, the curve
-                // allowing 0.024 at τ = 2621 s, and the combined K and imu.yaml took it).
-                let refused = impossible(term, e.value).filter(|_| domain == Domain::Spectrum);
-                if let Some((allowed, tau_s)) = refused {
-                    warnings.push(FitWarning::BeyondAllanCurve {
-                        term,
-                        fitted: e.value,
-                        allowed,
-                        tau_s,
-                    });
-                    continue;
-                }
                 let mut c = pick(e, domain);
                 // Against the value, not the interval's lower end: an ambiguous term's interval
                 // reaches down to where the neighbour's model puts it, 0 where that model weighs
@@ -570,6 +554,23 @@ pub fn combine(
                     // Neither fit determines it: this one could not tell it from a neighbour,
                     // and the other fit or the measured Allan curve bounds it below this
                     // estimate. No answer beats a wrong one.
+                    continue;
+                }
+                // Kept clearly by the spectrum fit only, at a value the measured Allan curve
+                // rules out (the term alone above its 99 % upper bound): the other fit, which
+                // sees the curve, did not keep it, and the curve forbids this reading, so neither
+                // determines the term. It is an upper limit, with the warning that names the
+                // reading refused (an 8-h
+                // FOG record's spectrum kept K = 4.65 °/h/√h on a gyro with none, the curve
+                // allowing 0.024 at τ = 2621 s, and the combined K and imu.yaml took it).
+                let refused = impossible(term, e.value).filter(|_| domain == Domain::Spectrum);
+                if let Some((allowed, tau_s)) = refused {
+                    warnings.push(FitWarning::BeyondAllanCurve {
+                        term,
+                        fitted: e.value,
+                        allowed,
+                        tau_s,
+                    });
                     continue;
                 }
                 // The other fit did not admit the term and bounds it below this estimate: the

@@ -8,8 +8,8 @@ use std::path::PathBuf;
 
 use super::stats::SliceScan;
 use super::{
-    verdicts, ChannelQuality, ChannelStats, Gap, GapPolicy, NonFinitePolicy, QualityOptions,
-    QualityReport, TimeJitter, MAX_LISTED_GAPS,
+    verdicts, ChannelQuality, ChannelStats, DuplicatePolicy, Gap, GapPolicy, NonFinitePolicy,
+    QualityOptions, QualityReport, TimeJitter, MAX_LISTED_GAPS,
 };
 use crate::io::time_grid::GridTracker;
 use crate::io::ChannelSpec;
@@ -97,6 +97,8 @@ pub struct Cleaner {
     missing: u64,
     filled: u64,
     dropped: u64,
+    /// Rows dropped because their timestamp repeated the previous row's.
+    duplicates: u64,
     last_time: f64,
 }
 
@@ -136,6 +138,7 @@ impl Cleaner {
             missing: 0,
             filled: 0,
             dropped: 0,
+            duplicates: 0,
             last_time: 0.0,
         }
     }
@@ -152,12 +155,21 @@ impl Cleaner {
         if let Some(times) = block.time_s.take() {
             for (i, &t) in times.iter().enumerate() {
                 let row = block.first_row + i as u64;
-                if let Some(missing) = self.check_time(row, t)? {
-                    self.emit_rows(&mut block, start, i)?;
-                    start = i;
-                    if self.options.gaps == GapPolicy::Fill {
-                        let next: Vec<f64> = block.channels.iter().map(|c| c[i]).collect();
-                        self.fill_gap(missing, &next);
+                match self.check_time(row, t)? {
+                    TimeStep::Next => {}
+                    TimeStep::Gap(missing) => {
+                        self.emit_rows(&mut block, start, i)?;
+                        start = i;
+                        if self.options.gaps == GapPolicy::Fill {
+                            let next: Vec<f64> = block.channels.iter().map(|c| c[i]).collect();
+                            self.fill_gap(missing, &next);
+                        }
+                    }
+                    // The rows before it go out; this one does not.
+                    TimeStep::Repeat => {
+                        self.emit_rows(&mut block, start, i)?;
+                        start = i + 1;
+                        self.duplicates += 1;
                     }
                 }
             }
@@ -197,6 +209,8 @@ impl Cleaner {
             missing_samples: self.missing,
             filled_samples: self.filled,
             dropped_rows: self.dropped,
+            duplicate_policy: self.options.duplicates,
+            duplicate_rows: self.duplicates,
             time_jitter: (self.jitter_count > 0).then(|| {
                 let rms_s = (self.jitter_sq / self.jitter_count as f64).sqrt();
                 // The times count from the first sample, so the last is the largest.
@@ -238,22 +252,26 @@ impl Cleaner {
         Ok((chunk, report))
     }
 
-    /// Checks one timestamp against the previous; returns the number of missing samples when a gap
-    /// ends at this row and the policy lets the run go on.
-    fn check_time(&mut self, row: u64, t: f64) -> Result<Option<u64>, InputError> {
+    /// Checks one timestamp against the previous: the next sample, the first after a gap of
+    /// missing samples, or a repeat of the previous timestamp to drop, where the policies let the
+    /// run go on.
+    fn check_time(&mut self, row: u64, t: f64) -> Result<TimeStep, InputError> {
         let previous = self.previous_time.replace(t);
         let Some(p) = previous else {
             if !t.is_finite() {
                 return Err(self.time_error(row, f64::NAN, t));
             }
             self.grid.place(t);
-            return Ok(None);
+            return Ok(TimeStep::Next);
         };
         let dt = t - p;
         if !t.is_finite() || dt < 0.0 {
             return Err(self.time_error(row, p, t));
         }
         if dt == 0.0 {
+            if self.options.duplicates == DuplicatePolicy::Drop {
+                return Ok(TimeStep::Repeat);
+            }
             return Err(InputError::DuplicateTimestamp {
                 path: self.path.clone(),
                 column: self.time_name.clone(),
@@ -270,7 +288,7 @@ impl Cleaner {
             self.jitter_count += 1;
         }
         if steps <= 1 {
-            return Ok(None);
+            return Ok(TimeStep::Next);
         }
         let missing = steps - 1;
         if self.options.gaps == GapPolicy::Error {
@@ -293,7 +311,7 @@ impl Cleaner {
                 missing_samples: missing,
             });
         }
-        Ok(Some(missing))
+        Ok(TimeStep::Gap(missing))
     }
 
     fn time_error(&self, row: u64, previous_s: f64, this_s: f64) -> InputError {
@@ -443,4 +461,14 @@ fn interpolate(gap: &mut [f64], from: f64, to: f64) {
     for (k, v) in gap.iter_mut().enumerate() {
         *v = from + (to - from) * (k as f64 + 1.0) / n;
     }
+}
+
+/// What a row's timestamp is, against the previous row's.
+enum TimeStep {
+    /// The next sample on the grid.
+    Next,
+    /// The first sample after this many missing ones (the gap policy lets the run go on).
+    Gap(u64),
+    /// The previous timestamp again, a row the duplicate policy drops.
+    Repeat,
 }

@@ -48,11 +48,25 @@ pub enum GapPolicy {
     Fill,
 }
 
+/// What to do with a row whose timestamp equals the previous row's: a message published twice
+/// (a ROS bag export can hold such repeats), or two samples the logger stamped alike.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DuplicatePolicy {
+    /// Stop with an error naming the row.
+    #[default]
+    Error,
+    /// Keep the first row of each repeated timestamp and drop the others (counted in
+    /// [`QualityReport::duplicate_rows`]).
+    Drop,
+}
+
 /// Options of the quality stage.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct QualityOptions {
     pub nonfinite: NonFinitePolicy,
     pub gaps: GapPolicy,
+    pub duplicates: DuplicatePolicy,
 }
 
 /// An invalid policy name.
@@ -88,6 +102,20 @@ impl FromStr for GapPolicy {
             _ => Err(UnknownPolicy {
                 given: s.into(),
                 accepted: "error, ignore, fill",
+            }),
+        }
+    }
+}
+
+impl FromStr for DuplicatePolicy {
+    type Err = UnknownPolicy;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "error" => Ok(Self::Error),
+            "drop" => Ok(Self::Drop),
+            _ => Err(UnknownPolicy {
+                given: s.into(),
+                accepted: "error, drop",
             }),
         }
     }
@@ -141,6 +169,10 @@ pub struct QualityReport {
     pub missing_samples: u64,
     pub filled_samples: u64,
     pub dropped_rows: u64,
+    /// The duplicate policy in force, and the rows it dropped (their timestamp repeated the
+    /// previous row's).
+    pub duplicate_policy: DuplicatePolicy,
+    pub duplicate_rows: u64,
     /// How far timestamps stray from the grid of sample instants; `None` without a time column.
     pub time_jitter: Option<TimeJitter>,
     pub channels: Vec<ChannelQuality>,

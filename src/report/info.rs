@@ -141,6 +141,19 @@ pub fn info_text(r: &FileResult) -> String {
             ),
         ));
     }
+    if q.duplicate_rows > 0 {
+        facts.push((
+            "repeats",
+            format!(
+                "{} repeating the previous timestamp (policy {}: the first of each kept)",
+                count(q.duplicate_rows, "row"),
+                match q.duplicate_policy {
+                    crate::quality::DuplicatePolicy::Error => "error",
+                    crate::quality::DuplicatePolicy::Drop => "drop",
+                }
+            ),
+        ));
+    }
     for n in &rec.notes {
         facts.push(("note", n.clone()));
     }

@@ -134,6 +134,12 @@ fn file_section(out: &mut String, r: &FileResult) {
             count(q.dropped_rows, "row")
         ));
     }
+    if q.duplicate_rows > 0 {
+        notes.push(format!(
+            "{} repeating the previous timestamp dropped (policy drop; the first of each kept)",
+            count(q.duplicate_rows, "row")
+        ));
+    }
     for c in &q.channels {
         for v in &c.verdicts {
             notes.push(format!("{}: {}", c.name, v.describe()));

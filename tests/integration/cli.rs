@@ -785,3 +785,63 @@ fn info_counts_non_finite_samples_by_default() {
     let stderr = String::from_utf8_lossy(&stopped.stderr);
     assert!(stderr.contains("row 100"), "{stderr}");
 }
+
+/// A message published twice (a ROS bag export's repeated stamp): by default an error that names
+/// the row and the option; with `--on-duplicate drop` the first of each kept (the repeat holds a
+/// wild value here, which must not reach the statistics) and counted; `info` counts it unasked.
+#[test]
+fn a_repeated_timestamp_is_named_or_dropped_on_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 6000;
+    let g = noise(n, 21);
+    let mut text = String::from("timestamp,gx [rad/s]\n");
+    for (i, v) in g.iter().enumerate() {
+        let t = 1_700_000_000_000_000_000i64 + i as i64 * 10_000_000;
+        text.push_str(&format!("{t},{:?}\n", 1e-3 * v));
+        if i == 500 {
+            text.push_str(&format!("{t},1000.0\n"));
+        }
+    }
+    std::fs::write(dir.path().join("r.csv"), text).unwrap();
+    let out = imunoise(
+        &["analyze", "r.csv", "-o", "a", "--backend", "cpu"],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_ne!(out.status.code(), Some(0), "{stderr}");
+    assert!(
+        stderr.contains("row 501") && stderr.contains("--on-duplicate drop"),
+        "{stderr}"
+    );
+    let out = run_ok(
+        &[
+            "analyze",
+            "r.csv",
+            "-o",
+            "b",
+            "--backend",
+            "cpu",
+            "--on-duplicate",
+            "drop",
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("1 row repeating the previous timestamp dropped"),
+        "{stderr}"
+    );
+    let doc: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("b/report.json")).unwrap())
+            .unwrap();
+    let q = &doc["files"][0]["quality"];
+    assert_eq!(q["duplicate_rows"], 1);
+    assert_eq!(q["samples_out"], n as u64);
+    assert!(q["channels"][0]["max"].as_f64().unwrap() < 1.0, "{q}");
+    let out = run_ok(&["info", "r.csv"], dir.path());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("1 row repeating the previous timestamp"),
+        "{stdout}"
+    );
+}

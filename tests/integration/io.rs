@@ -297,6 +297,7 @@ fn non_finite_samples_error_with_row_or_follow_the_policy() {
         quality: QualityOptions {
             nonfinite: NonFinitePolicy::Drop,
             gaps: GapPolicy::Error,
+            ..Default::default()
         },
         ..Default::default()
     };

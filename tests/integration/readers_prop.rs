@@ -189,6 +189,7 @@ fn read_clean(
     let options = QualityOptions {
         nonfinite: policy,
         gaps: GapPolicy::Ignore,
+        ..Default::default()
     };
     let mut cleaner = imunoise::quality::Cleaner::new(&rec, options);
     let mut out = vec![Vec::new(); rec.channels.len()];
