@@ -811,6 +811,7 @@ fn main() {
                     FitWarning::HeavyTail { .. } => "heavy tail".to_string(),
                     FitWarning::CouplingOrWarmUp { .. } => "coupling or warm-up".to_string(),
                     FitWarning::NotStatic { .. } => "not static".to_string(),
+                    FitWarning::LinesAcrossJoins { .. } => "lines across joins".to_string(),
                 });
             }
             if let Some(path) = &dump {

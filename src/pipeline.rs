@@ -476,6 +476,12 @@ fn fit_channels(
             jumps: m.jumps,
         });
     let loop_cfg = if moved.is_some() { None } else { loop_cfg };
+    // Places where the samples either side of a hole were joined as if contiguous.
+    let joins = quality.dropped_rows
+        + match quality.gap_policy {
+            crate::quality::GapPolicy::Ignore => quality.gap_count,
+            _ => 0,
+        };
     let of = inputs.len();
     let done = AtomicUsize::new(0);
     progress.fitted(0, of);
@@ -484,6 +490,19 @@ fn fit_channels(
         .map(|input| {
             let mut a = analysis::analyze_channel(input, &aux, opts, loop_cfg);
             a.combined.warnings.extend(moved.clone());
+            let lines = a.residual_loop.as_ref().is_some_and(|r| {
+                r.steps.iter().any(|s| {
+                    matches!(
+                        s.effect,
+                        crate::effects::Effect::Sinusoid(_) | crate::effects::Effect::Narrowband(_)
+                    )
+                })
+            });
+            if lines && joins > 0 {
+                a.combined
+                    .warnings
+                    .push(FitWarning::LinesAcrossJoins { joins });
+            }
             progress.fitted(done.fetch_add(1, Ordering::SeqCst) + 1, of);
             a
         })

@@ -144,6 +144,14 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Recording, InputError>
     if format == Format::Mcap {
         notes.push(mcap::describe(&schema));
     }
+    if format == Format::Csv && ends_without_line_end(path) {
+        notes.push(
+            "the file does not end with a line end: its last row may have been cut short while \
+             the file was written (a last value of 9 for 9.832158 reads as 9); it is read as it \
+             stands"
+                .into(),
+        );
+    }
     // A `scale` is a count's worth; on a float column (values already in their unit, as a
     // converter that kept the metadata writes them) it is applied too, which is rarely meant:
     // a float gyro with scale 2 had its N doubled with nothing said.
@@ -508,4 +516,18 @@ impl Iterator for BlockReader {
             channels,
         }))
     }
+}
+
+/// Whether the file's last byte is something other than a line end (an empty file has none):
+/// a text table written in full ends with one, and one cut off while being written does not.
+fn ends_without_line_end(path: &Path) -> bool {
+    use std::io::{Read, Seek, SeekFrom};
+    let Ok(mut f) = std::fs::File::open(path) else {
+        return false;
+    };
+    if f.seek(SeekFrom::End(-1)).is_err() {
+        return false;
+    }
+    let mut last = [0u8; 1];
+    f.read_exact(&mut last).is_ok() && !matches!(last[0], b'\n' | b'\r')
 }

@@ -144,6 +144,11 @@ pub enum FitWarning {
         n_hi: Option<f64>,
         angle_q: Option<f64>,
     },
+    /// The loop found a line or a narrow band in a record joined over `joins` places (gaps under
+    /// `--on-gap ignore`, rows dropped under `--on-nonfinite drop`): a sinusoid's phase breaks at
+    /// each join, so a steady line may read weaker, with a narrow band or a second line beside it
+    /// (a 37-Hz line over six joins read 27 % low beside a band that does not exist).
+    LinesAcrossJoins { joins: u64 },
     /// The record is not static: `channel`'s means over 1 s jump by up to `largest_jump` (SI),
     /// `jumps` times between `from_s` and `to_s` ([`crate::quality::motion`]). The IEEE model
     /// describes a sensor at rest, so the coefficients are not its noise; the residual loop was
@@ -265,6 +270,13 @@ impl FitWarning {
                 100.0 * super::rival_share(*weight)
             ),
             FitWarning::CouplingOrWarmUp { .. } => coupling_or_warm_up_line(self),
+            FitWarning::LinesAcrossJoins { joins } => format!(
+                "a line or narrow band was found in a record joined over {joins} place{} (gaps \
+                 under --on-gap ignore, rows dropped as non-finite): a line's phase breaks at \
+                 each join, so a steady line may read weaker, with a narrow band or a second line \
+                 beside it; --on-gap fill keeps its phase",
+                if *joins == 1 { "" } else { "s" }
+            ),
             FitWarning::NotStatic { largest_jump, .. } => {
                 not_static_line(self, &format!("{largest_jump:.4e} (SI)"))
             }

@@ -649,7 +649,7 @@ pub fn warning_line(w: &FitWarning, sensor: Sensor) -> String {
                  worst at {range}; intervals widened ×{inflation:.2}"
             )
         }
-        FitWarning::CouplingOrWarmUp { .. } => crate::model::coupling_or_warm_up_line(w),
+        FitWarning::CouplingOrWarmUp { .. } | FitWarning::LinesAcrossJoins { .. } => w.describe(),
         FitWarning::NotStatic {
             sensor: moving,
             largest_jump,

@@ -615,3 +615,55 @@ fn a_record_in_which_the_sensor_moved_says_so_on_every_channel() {
         );
     }
 }
+
+/// A steady line in a record with missing samples: joined over (`--on-gap ignore`) its phase
+/// breaks at each join, and the line found says so (`lines_across_joins`); filled, no warning.
+#[test]
+fn a_line_across_joined_gaps_is_flagged() {
+    let (fs, n) = (100.0, 60_000);
+    let w = noise(n, 31);
+    let holes = [9_000, 21_000, 21_001, 37_000, 48_000];
+    let mut text = String::from("timestamp,ax [m/s^2]\n");
+    for i in (0..n).filter(|i| !holes.contains(i)) {
+        let t = i as f64 / fs;
+        let v = 0.02 * w[i] + 0.05 * (2.0 * std::f64::consts::PI * 12.5 * t + 0.3).sin();
+        text.push_str(&format!(
+            "{},{v:?}\n",
+            1_700_000_000_000_000_000i64 + i as i64 * 10_000_000
+        ));
+    }
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("r.csv"), text).unwrap();
+    for (policy, warned) in [("ignore", true), ("fill", false)] {
+        let out_dir = format!("out_{policy}");
+        run_ok(
+            &[
+                "analyze",
+                "r.csv",
+                "--on-gap",
+                policy,
+                "-o",
+                &out_dir,
+                "--backend",
+                "cpu",
+            ],
+            dir.path(),
+        );
+        let report: Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join(&out_dir).join("report.json")).unwrap(),
+        )
+        .unwrap();
+        let kinds: Vec<String> = channel_analysis(&report, "ax")["residual_loop"]["steps"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s["effect"]["kind"].as_str().unwrap().to_owned())
+            .collect();
+        assert!(kinds.iter().any(|k| k == "sinusoid"), "{policy}: {kinds:?}");
+        let w = combined_warning(&report, "ax", "lines_across_joins");
+        assert_eq!(w.is_some(), warned, "{policy}: {w:?}");
+        if let Some(w) = w {
+            assert_eq!(w["joins"], 4, "{w}");
+        }
+    }
+}

@@ -845,3 +845,27 @@ fn a_repeated_timestamp_is_named_or_dropped_on_request() {
         "{stdout}"
     );
 }
+
+/// A CSV cut off while being written (no line end after its last value) says so; a whole one
+/// does not.
+#[test]
+fn a_csv_without_its_last_line_end_is_noted() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = noise(3000, 22);
+    let mut text = String::from("gx [rad/s]\n");
+    for v in &g {
+        text.push_str(&format!("{:?}\n", 1e-3 * v));
+    }
+    std::fs::write(dir.path().join("whole.csv"), &text).unwrap();
+    text.push('9');
+    std::fs::write(dir.path().join("cut.csv"), &text).unwrap();
+    for (file, cut) in [("whole.csv", false), ("cut.csv", true)] {
+        let out = run_ok(&["info", file, "--rate", "100"], dir.path());
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(
+            stdout.contains("does not end with a line end"),
+            cut,
+            "{file}: {stdout}"
+        );
+    }
+}
