@@ -108,6 +108,7 @@ pub fn coupling_under_model(
         },
         scale_s: block as f64 / fs,
         n_eff: m,
+        aux_span: super::time::coupling::span_of_means(aux, fs),
         explains_drift: None,
     })
 }

@@ -516,12 +516,15 @@ pub fn effect_line(e: &Effect, units: &EffectUnits) -> String {
             v.interval(sigma.value, sigma.lo, sigma.hi)
         ),
         Effect::Coupling { aux, fit } => format!(
-            "coupling to {aux}: {}, {:.1} % of the variance",
+            "coupling to {aux}: {}; {} across the {} that {aux} spans (1-s means), {:.1} % of \
+             the variance",
             Shown::ratio(units.value, units.of_other(aux), aux).interval(
                 fit.coefficient,
                 fit.lo,
                 fit.hi
             ),
+            Shown::value(units.value).one(fit.coefficient.abs() * fit.aux_span),
+            Shown::value(units.of_other(aux)).one(fit.aux_span),
             100.0 * fit.explained_share
         ),
         Effect::Drift(d) => {
@@ -860,6 +863,7 @@ mod tests {
             explained_share: 0.2,
             scale_s: 1.0,
             n_eff: 100,
+            aux_span: 2.0,
             explains_drift: None,
         };
         let e = Effect::Coupling {
@@ -870,7 +874,8 @@ mod tests {
         assert!(
             accel.starts_with("coupling to temperature: 9.807e-4 [8.000e-4, 0.001100] (m/s²)/K (")
                 && accel.contains("0.1000 [")
-                && accel.contains("] mg/°C), 20.0 % of the variance"),
+                && accel.contains("] mg/°C); 0.001961 m/s² (0.2000 mg) across the 2.000 ")
+                && accel.ends_with(" that temperature spans (1-s means), 20.0 % of the variance"),
             "{accel}"
         );
         assert!(!accel.contains("per unit"), "{accel}");

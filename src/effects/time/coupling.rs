@@ -59,6 +59,10 @@ pub struct Coupling {
     pub scale_s: f64,
     /// Increments at the scale of the best evidence: the effective sample count.
     pub n_eff: usize,
+    /// How far the aux channel's 1-s means range over the record (max − min, its unit): the
+    /// coupling moved the bias by |coefficient|·span. The share of the variance says little
+    /// where white noise dominates the samples (0.0 % on a navigation-grade gyro at 200 Hz).
+    pub aux_span: f64,
     /// ΔBIC of a drift of the bias that is significant on its own and that this coupling
     /// explains (the loop then takes the coupling and vetoes the drift): where the aux channel
     /// only warms up, with no wander the series follows, a warm-up of the bias and the aux
@@ -131,8 +135,26 @@ pub fn fit_coupling(y: &[f64], aux: &[f64], rate_hz: f64, p: f64) -> Option<Coup
         explained_share: share,
         scale_s: est.s as f64 / rate_hz,
         n_eff,
+        aux_span: span_of_means(aux, rate_hz),
         explains_drift: None,
     })
+}
+
+/// Max − min of `aux`'s means over 1 s (one sample where the rate is below 1 Hz): its range
+/// with the sensor's own noise averaged down. 0 for an empty series.
+pub fn span_of_means(aux: &[f64], rate_hz: f64) -> f64 {
+    let block = (rate_hz.round() as usize).max(1);
+    let (lo, hi) = aux
+        .chunks(block)
+        .map(|c| c.iter().sum::<f64>() / c.len() as f64)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
+            (lo.min(m), hi.max(m))
+        });
+    if hi >= lo {
+        hi - lo
+    } else {
+        0.0
+    }
 }
 
 /// The means of consecutive pairs of `v` (a last unpaired value is left out).
