@@ -798,6 +798,31 @@ fn loop_section(out: &mut String, recording: &Recording, analysis: &[ChannelAnal
                 r.delta_bic
             )
         });
+        // A coupling the loop weighed and did not admit still bounds the sensitivity the data
+        // allow: its coefficient and interval (SI) are in the candidate's note.
+        // Not where a coupling was admitted or is the rival: the last round's candidate is then
+        // what is left of it in the corrected series.
+        let rival_coupling = l
+            .rival
+            .as_ref()
+            .is_some_and(|r| matches!(r.effect, Effect::Coupling { .. }))
+            || l.steps
+                .iter()
+                .any(|s| matches!(s.effect, Effect::Coupling { .. }));
+        let rival = l
+            .rejected
+            .iter()
+            .filter(|r| r.kind == "coupling" && !rival_coupling)
+            .fold(rival, |mut acc, r| {
+                let _ = write!(
+                    acc,
+                    " Not admitted: a coupling ({}{}).",
+                    r.note,
+                    r.delta_bic
+                        .map_or(String::new(), |d| format!("; ΔBIC {d:+.1}"))
+                );
+                acc
+            });
         if l.steps.is_empty() {
             let _ = writeln!(
                 out,

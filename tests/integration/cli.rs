@@ -522,6 +522,24 @@ fn analyze_labels_every_coefficient_amplitude_and_legend_with_its_unit() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     let md = std::fs::read_to_string(dir.path().join("out/summary.md")).unwrap();
+    // A coupling weighed and not admitted states its coefficient in summary.md (accel_x: none
+    // planted); none on gyro_z, whose coupling was admitted.
+    let loop_line = |channel: &str| {
+        md.lines()
+            .find(|l| l.starts_with(&format!("- **{channel}**")))
+            .unwrap_or_else(|| panic!("no loop line for {channel} in {md}"))
+            .to_owned()
+    };
+    assert!(
+        loop_line("accel_x")
+            .contains("Not admitted: a coupling (time series: regression on temperature")
+            && loop_line("accel_x").contains("in SI"),
+        "{md}"
+    );
+    assert!(
+        !loop_line("gyro_z").contains("Not admitted: a coupling"),
+        "{md}"
+    );
     for text in [&*stderr, &md] {
         assert!(!text.contains("per unit"), "{text}");
         // The coupling of the gyro to the temperature, in both unit systems.
