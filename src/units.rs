@@ -261,10 +261,22 @@ impl FromStr for Unit {
     type Err = UnknownUnit;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         let key: String = s.trim().replace(' ', "").to_lowercase();
-        SPELLINGS
-            .iter()
-            .find(|(spelling, _)| *spelling == key)
-            .map(|(_, unit)| *unit)
+        // Negative exponents as EuRoC/ASL headers write them: `rad s^-1`, `m s^-2`.
+        let divided = [("s^-1", "/s"), ("s^-2", "/s^2")]
+            .into_iter()
+            .find_map(|(power, per)| {
+                key.strip_suffix(power)
+                    .filter(|stem| !stem.is_empty() && !stem.ends_with('/'))
+                    .map(|stem| format!("{stem}{per}"))
+            });
+        let find = |key: &str| {
+            SPELLINGS
+                .iter()
+                .find(|(spelling, _)| *spelling == key)
+                .map(|(_, unit)| *unit)
+        };
+        find(&key)
+            .or_else(|| divided.as_deref().and_then(find))
             .ok_or_else(|| UnknownUnit(s.to_string()))
     }
 }
@@ -371,6 +383,19 @@ mod tests {
             assert_eq!(spelling.parse::<Unit>().unwrap(), *unit);
             assert_eq!(unit.as_str().parse::<Unit>().unwrap(), *unit);
         }
+    }
+
+    /// EuRoC/ASL headers' exponents: `rad s^-1` is rad/s, `m s^-2` is m/s², `deg s^-1` °/s;
+    /// nothing else changes meaning.
+    #[test]
+    fn negative_exponents_read_as_divisions() {
+        assert_eq!("rad s^-1".parse::<Unit>().unwrap(), Unit::RadPerS);
+        assert_eq!("m s^-2".parse::<Unit>().unwrap(), Unit::MPerS2);
+        assert_eq!("deg s^-1".parse::<Unit>().unwrap(), Unit::DegPerS);
+        assert_eq!("m s^-1".parse::<Unit>().unwrap(), Unit::MPerS);
+        assert!("s^-1".parse::<Unit>().is_err());
+        assert!("rad/s^-1".parse::<Unit>().is_err());
+        assert!("g s^-2".parse::<Unit>().is_err());
     }
 
     /// The README's list of units is the parser's: every accepted spelling is in it.

@@ -887,3 +887,35 @@ fn a_csv_without_its_last_line_end_is_noted() {
         );
     }
 }
+
+/// EuRoC/ASL `imu0.csv`: its header is a comment line with `rad s^-1` and `m s^-2` units. As
+/// written, the error says the comment looks like the header; without the `#` the units read as
+/// rad/s and m/s² and the channels as gyro and accelerometer.
+#[test]
+fn a_euroc_header_is_recognised() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, a) = (noise(3000, 41), noise(3000, 42));
+    let mut text = String::from("#timestamp [ns],w_RS_S_x [rad s^-1],a_RS_S_x [m s^-2]\n");
+    for i in 0..3000 {
+        let t = 1_403_636_579_758_555_392i64 + i as i64 * 5_000_000;
+        text.push_str(&format!("{t},{:?},{:?}\n", 2e-3 * w[i], 9.81 + 0.02 * a[i]));
+    }
+    std::fs::write(dir.path().join("imu0.csv"), &text).unwrap();
+    std::fs::write(dir.path().join("fixed.csv"), &text[1..]).unwrap();
+    let out = imunoise(&["info", "imu0.csv"], dir.path());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_ne!(out.status.code(), Some(0));
+    assert!(
+        stderr.contains(
+            "`#timestamp [ns],w_RS_S_x [rad s^-1],a_RS_S_x [m s^-2]`, looks like the header"
+        ),
+        "{stderr}"
+    );
+    let out = run_ok(&["info", "fixed.csv", "--json"], dir.path());
+    let doc: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let channels = &doc["files"][0]["recording"]["channels"];
+    assert_eq!(channels[0]["unit"], "rad/s", "{channels}");
+    assert_eq!(channels[0]["kind"], "gyro", "{channels}");
+    assert_eq!(channels[1]["unit"], "m/s^2", "{channels}");
+    assert_eq!(channels[1]["kind"], "accel", "{channels}");
+}

@@ -134,13 +134,29 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
         }
     }
     if names.iter().all(|n| matches!(cell(n), Cell::Number(_))) {
+        // EuRoC/ASL files write their header as a comment (`#timestamp [ns],w_RS_S_x [rad s^-1],
+        // …`): say so where the comment above has as many names as the row has numbers.
+        let hint = comment_before(file, header.line)
+            .filter(|c| {
+                let fields: Vec<&str> = c.split(',').collect();
+                fields.len() == names.len()
+                    && !fields.iter().all(|f| matches!(cell(f), Cell::Number(_)))
+            })
+            .map_or(String::new(), |c| {
+                format!(
+                    "; the comment line above, `#{}`, looks like the header: remove its `#` \
+                     (EuRoC/ASL files write the header so)",
+                    shown(&c)
+                )
+            });
         return Err(malformed(
             path,
             None,
             Some(header.line),
-            "the first line that is not a comment holds numbers, not column names; a header line \
-             (e.g. `time [s],gyro_x [deg/s]`) is needed"
-                .into(),
+            format!(
+                "the first line that is not a comment holds numbers, not column names; a header \
+                 line (e.g. `time [s],gyro_x [deg/s]`) is needed{hint}"
+            ),
         ));
     }
     let parts: Vec<(String, Option<String>)> = names.iter().map(|n| split_header_unit(n)).collect();
@@ -303,6 +319,21 @@ pub fn open(path: &Path) -> std::io::Result<File> {
 }
 
 /// The schema metadata that comment lines before the header give (`# sample_rate_hz: 200`).
+/// The text after `#` of the last comment line before line `line` (1-based) of `file`.
+fn comment_before(file: &mut File, line: u64) -> Option<String> {
+    rewind(file).ok()?;
+    BufReader::new(&mut *file)
+        .lines()
+        .take(line.saturating_sub(1) as usize)
+        .map_while(Result::ok)
+        .filter_map(|l| {
+            l.trim_end_matches('\r')
+                .strip_prefix(COMMENT as char)
+                .map(str::to_owned)
+        })
+        .last()
+}
+
 fn preamble(path: &Path, mut reader: impl BufRead) -> Result<HashMap<String, String>, InputError> {
     let mut metadata = HashMap::new();
     let mut line = Vec::new();
