@@ -217,17 +217,7 @@ pub fn collect_inputs_noting(
 
 /// A file-name-safe form of a stem: ASCII letters, digits, `_`, `-` and `.`, at most 40 of them.
 fn sanitize(stem: &str) -> String {
-    let s: String = stem
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.') {
-                c
-            } else {
-                '_'
-            }
-        })
-        .take(40)
-        .collect();
+    let s: String = crate::report::file_safe(stem).chars().take(40).collect();
     if s.is_empty() {
         "input".into()
     } else {

@@ -358,24 +358,28 @@ pub fn write_json(path: &Path, doc: &Value) -> Result<(), OutputError> {
     write_atomically(path, |out| write_json_layout(out, doc))
 }
 
-/// The file-name part of a channel's plots: its name with every character other than letters,
-/// digits, `-`, `_` and `.` replaced by `_`, and where two channels named in `all` (every channel
-/// plotted) come out alike, its
-/// position among them appended. A ROS export's `field.angular_velocity.x` once lost its `.x` to
+/// `name` with every character other than ASCII letters, digits, `-`, `_` and `.` replaced by
+/// `_`: safe in a file name on every system (a fleet's file keys, a channel's plot files).
+pub fn file_safe(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// The file-name part of a channel's plots: its name made [`file_safe`] (a leading `.` or an
+/// empty name prefixed with `_`), and where two channels named in `all` (every channel plotted)
+/// come out alike, its position among them appended. A ROS export's `field.angular_velocity.x` once lost its `.x` to
 /// the extension, so that the three axes' plots (and the two kinds) overwrote one another, and two
 /// channels writing one file at once failed the run; a `/` in a name would have made a folder.
 pub fn plot_name<'a>(channel: &str, all: impl IntoIterator<Item = &'a str>) -> String {
     let clean = |name: &str| -> String {
-        let s: String = name
-            .chars()
-            .map(|c| {
-                if c.is_alphanumeric() || matches!(c, '-' | '_' | '.') {
-                    c
-                } else {
-                    '_'
-                }
-            })
-            .collect();
+        let s = file_safe(name);
         if s.is_empty() || s.starts_with('.') {
             format!("_{s}")
         } else {

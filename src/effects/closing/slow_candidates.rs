@@ -308,16 +308,22 @@ fn coupling_beyond_drift(
     let Effect::Drift(drift) = &candidate.effect else {
         return false;
     };
-    let Some((_, samples, _)) = detected
-        .iter()
-        .min_by(|a, b| a.2.p_value.total_cmp(&b.2.p_value))
-    else {
+    let Some((_, samples, _)) = strongest(detected) else {
         return false;
     };
     let mut without = y.to_vec();
     remove_drift(&mut without, fs, drift);
     coupling_under_model(&without, samples, fs, density, 1, p)
         .is_some_and(|c| c.p_value < DETECTION_P)
+}
+
+/// The coupling of `detected` with the lowest p-value.
+fn strongest<'a, 'b>(
+    detected: &'a [(&'b str, &'b [f64], Coupling)],
+) -> Option<&'a (&'b str, &'b [f64], Coupling)> {
+    detected
+        .iter()
+        .min_by(|a, b| a.2.p_value.total_cmp(&b.2.p_value))
 }
 
 /// Why a drift `candidate` may not be added: a coupling of `detected` (strong enough to be added
@@ -341,9 +347,7 @@ fn explained_by_coupling(
     if drift.p_value >= DETECTION_P {
         return None;
     }
-    let (name, samples, coupling) = detected
-        .iter()
-        .min_by(|a, b| a.2.p_value.total_cmp(&b.2.p_value))?;
+    let (name, samples, coupling) = strongest(detected)?;
     let mut without = y.to_vec();
     remove_coupling(&mut without, samples, coupling);
     let left =
