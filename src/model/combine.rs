@@ -269,7 +269,18 @@ impl FitWarning {
                 },
                 100.0 * super::rival_share(*weight)
             ),
-            FitWarning::CouplingOrWarmUp { .. } => coupling_or_warm_up_line(self),
+            FitWarning::CouplingOrWarmUp {
+                aux,
+                drift_delta_bic,
+                coupling_delta_bic,
+                ..
+            } => format!(
+                "the coupling to {aux} also stands for a drift of the bias that is significant on \
+                 its own (ΔBIC {drift_delta_bic:.1}, the coupling's {coupling_delta_bic:.1}): \
+                 where {aux} only warms up, with no wander the series follows, the bias's own \
+                 warm-up and one {aux} drives are not told apart, and the coefficient holds only \
+                 if the drift is {aux}'s"
+            ),
             FitWarning::LinesAcrossJoins { joins } => format!(
                 "a line or narrow band was found in a record joined over {joins} place{} (gaps \
                  under --on-gap ignore, rows dropped as non-finite): a line's phase breaks at \
@@ -312,26 +323,6 @@ pub fn not_static_line(w: &FitWarning, jump: &str) -> String {
          does: the noise model describes a sensor at rest, so these coefficients are not its \
          noise, and the residual loop was not run; analyse a stretch at rest (cut the record)",
         if *jumps == 1 { "" } else { "s" }
-    )
-}
-
-/// The [`FitWarning::CouplingOrWarmUp`] sentence (no unit: it names the effect, whose line gives
-/// the coefficient).
-pub fn coupling_or_warm_up_line(w: &FitWarning) -> String {
-    let FitWarning::CouplingOrWarmUp {
-        aux,
-        drift_delta_bic,
-        coupling_delta_bic,
-        ..
-    } = w
-    else {
-        return w.describe();
-    };
-    format!(
-        "the coupling to {aux} also stands for a drift of the bias that is significant on its own \
-         (ΔBIC {drift_delta_bic:.1}, the coupling's {coupling_delta_bic:.1}): where {aux} only \
-         warms up, with no wander the series follows, the bias's own warm-up and one {aux} drives \
-         are not told apart, and the coefficient holds only if the drift is {aux}'s"
     )
 }
 

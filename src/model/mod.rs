@@ -81,8 +81,8 @@ pub use avar_fit::{fit_avar, fit_avar_with, fit_points, FIT_TAU_RATIO};
 pub use average::{average_with_rival, rival_share};
 pub use bandwidth::{detect_bandwidth, BandEdge, Bandwidth, FilterForm, LowPass, BAND_BIAS};
 pub use combine::{
-    combine, coupling_or_warm_up_line, heavy_tail_line, not_static_line, read_offs,
-    resolution_line, upper_limit, Combined, CombinedTerm, FitWarning, ReadOff,
+    combine, heavy_tail_line, not_static_line, read_offs, resolution_line, upper_limit, Combined,
+    CombinedTerm, FitWarning, ReadOff,
 };
 pub use compare::{compare, TermComparison};
 pub use effect::EffectShape;

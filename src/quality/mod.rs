@@ -131,6 +131,15 @@ impl fmt::Display for NonFinitePolicy {
     }
 }
 
+impl fmt::Display for DuplicatePolicy {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Error => "error",
+            Self::Drop => "drop",
+        })
+    }
+}
+
 impl fmt::Display for GapPolicy {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {

@@ -147,10 +147,7 @@ pub fn info_text(r: &FileResult) -> String {
             format!(
                 "{} repeating the previous timestamp (policy {}: the first of each kept)",
                 count(q.duplicate_rows, "row"),
-                match q.duplicate_policy {
-                    crate::quality::DuplicatePolicy::Error => "error",
-                    crate::quality::DuplicatePolicy::Drop => "drop",
-                }
+                q.duplicate_policy
             ),
         ));
     }

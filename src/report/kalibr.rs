@@ -86,12 +86,11 @@ pub fn imu_yaml(
                     .iter()
                     .filter(|a| a.channel == channel)
                     .flat_map(|a| &a.combined.warnings)
-                    .find(|w| matches!(w, FitWarning::NotStatic { .. }))
-                    .map(|w| match w {
+                    .find_map(|w| match w {
                         FitWarning::NotStatic { channel, .. } => {
-                            format!("not static: {channel} moved")
+                            Some(format!("not static: {channel} moved"))
                         }
-                        _ => String::new(),
+                        _ => None,
                     })
             })
     };

@@ -250,16 +250,16 @@ pub(super) fn slow_candidates<'a>(
             // the coupling is kept, so that stderr and the fleet table carry it, not only the
             // effect's evidence.
             if let Some(c) = coupling {
-                c.evidence.push_str(&format!(
-                    "; a drift of the bias is significant on its own too (ΔBIC {:.1} against \
-                     the coupling's {:.1}) and the coupling explains it: where the temperature \
-                     only warms up, with no wander the series follows, a warm-up of the bias \
-                     and the temperature's are not told apart, and the coefficient holds only \
-                     if the drift is the temperature's",
-                    d.delta_bic, c.delta_bic
-                ));
-                if let Effect::Coupling { fit, .. } = &mut c.effect {
+                if let Effect::Coupling { aux, fit } = &mut c.effect {
                     fit.explains_drift = Some(d.delta_bic);
+                    c.evidence.push_str(&format!(
+                        "; a drift of the bias is significant on its own too (ΔBIC {:.1} \
+                         against the coupling's {:.1}) and the coupling explains it: where \
+                         {aux} only warms up, with no wander the series follows, a warm-up of \
+                         the bias and {aux}'s are not told apart, and the coefficient holds only \
+                         if the drift is {aux}'s",
+                        d.delta_bic, c.delta_bic
+                    ));
                 }
             }
         }

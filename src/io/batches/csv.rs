@@ -84,7 +84,7 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
         message: e.to_string(),
     };
     rewind(file).map_err(io_error)?;
-    let metadata = preamble(path, BufReader::new(&mut *file))?;
+    let (metadata, last_comment) = preamble(path, BufReader::new(&mut *file))?;
     rewind(file).map_err(io_error)?;
 
     let mut scanner = Scanner::new(BufReader::new(&mut *file));
@@ -136,7 +136,7 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
     if names.iter().all(|n| matches!(cell(n), Cell::Number(_))) {
         // EuRoC/ASL files write their header as a comment (`#timestamp [ns],w_RS_S_x [rad s^-1],
         // …`): say so where the comment above has as many names as the row has numbers.
-        let hint = comment_before(file, header.line)
+        let hint = last_comment
             .filter(|c| {
                 let fields: Vec<&str> = c.split(',').collect();
                 fields.len() == names.len()
@@ -318,24 +318,15 @@ pub fn open(path: &Path) -> std::io::Result<File> {
     Ok(file)
 }
 
-/// The schema metadata that comment lines before the header give (`# sample_rate_hz: 200`).
-/// The text after `#` of the last comment line before line `line` (1-based) of `file`.
-fn comment_before(file: &mut File, line: u64) -> Option<String> {
-    rewind(file).ok()?;
-    BufReader::new(&mut *file)
-        .lines()
-        .take(line.saturating_sub(1) as usize)
-        .map_while(Result::ok)
-        .filter_map(|l| {
-            l.trim_end_matches('\r')
-                .strip_prefix(COMMENT as char)
-                .map(str::to_owned)
-        })
-        .last()
-}
-
-fn preamble(path: &Path, mut reader: impl BufRead) -> Result<HashMap<String, String>, InputError> {
+/// The schema metadata that comment lines before the header give (`# sample_rate_hz: 200`), and
+/// the text after `#` of the last of them (a header left in a comment, as EuRoC/ASL files write
+/// it).
+fn preamble(
+    path: &Path,
+    mut reader: impl BufRead,
+) -> Result<(HashMap<String, String>, Option<String>), InputError> {
     let mut metadata = HashMap::new();
+    let mut last_comment = None;
     let mut line = Vec::new();
     loop {
         line.clear();
@@ -361,8 +352,9 @@ fn preamble(path: &Path, mut reader: impl BufRead) -> Result<HashMap<String, Str
                 metadata.insert(RATE_KEY.to_string(), value.trim().to_string());
             }
         }
+        last_comment = Some(comment.to_owned());
     }
-    Ok(metadata)
+    Ok((metadata, last_comment))
 }
 
 fn malformed(path: &Path, row: Option<u64>, line: Option<u64>, message: String) -> InputError {
