@@ -396,7 +396,10 @@ fn write_outputs(
                 .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
         });
         rest.and(json)
-    })
+    })?;
+    // What a run killed while writing left behind (this run's own writes are done by now).
+    report::sweep_temporaries(dir);
+    Ok(())
 }
 
 /// Everything but report.json: the tables, summary.md and the per-file folders.
@@ -440,6 +443,8 @@ fn write_tables_and_folders(
             std::fs::create_dir_all(&plots).map_err(|e| OutputError::new(&plots, e))?;
             let figures = report::write_plots(&plots, r)?;
             report::prune_figures(&plots, &figures.into_iter().collect())?;
+            report::sweep_temporaries(&folder);
+            report::sweep_temporaries(&plots);
         }
         let stale = report::retire_stale_folders(dir, &written)?;
         if !stale.is_empty() {

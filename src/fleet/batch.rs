@@ -200,6 +200,8 @@ pub fn run_batch(
     let mine: Vec<&Input> = all.iter().filter(|i| i.in_shard(cfg.shard)).collect();
     let dir = cfg.layout.shard_dir(cfg.shard.index);
     std::fs::create_dir_all(&dir).map_err(|e| ScreenError::output(&dir, e))?;
+    // Part files a killed run of this shard was writing (the shard's lock is ours now).
+    crate::report::sweep_temporaries(&dir);
     Manifest::new(cfg.shard, cfg.options, &mine).write(cfg.layout)?;
 
     let summary = Mutex::new(BatchSummary {

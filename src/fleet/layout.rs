@@ -307,6 +307,8 @@ pub fn fleet_step(
         use std::io::Write;
         w.write_all(html.as_bytes())
     })?;
+    // The fleet step holds the fleet lock: a temporary of a dead process here is a killed step's.
+    crate::report::sweep_temporaries(&layout.dir);
     Ok(summary)
 }
 

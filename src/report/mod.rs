@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
 
-pub use atomic::{write_atomically, OutputError};
+pub use atomic::{sweep_temporaries, write_atomically, OutputError};
 pub use figures::{avar_figure, psd_figure};
 pub use format::sig4;
 pub use info::info_text;

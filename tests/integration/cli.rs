@@ -232,8 +232,21 @@ fn an_earlier_runs_folder_does_not_look_current() {
     let out = dir.path().join("out");
     assert!(out.join("b/imu.yaml").exists() && out.join("b/plots/g_avar.svg").exists());
 
+    // A run killed while writing left temporaries (pid beyond the kernel's limit: not running);
+    // the next run clears them where it writes.
+    let litter = [
+        out.join(".report.json.4194999.tmp"),
+        out.join("a/.imu.yaml.4194999.tmp"),
+        out.join("a/plots/.g_avar.svg.4194999.tmp"),
+    ];
+    for p in &litter {
+        std::fs::write(p, "half").unwrap();
+    }
     write("b.arrow", 2, true);
     let second = imunoise(&args, dir.path());
+    for p in &litter {
+        assert!(!p.exists(), "{} swept", p.display());
+    }
     assert_eq!(second.status.code(), Some(1), "{second:?}");
     let stderr = String::from_utf8_lossy(&second.stderr);
     assert!(
