@@ -392,7 +392,7 @@ pub fn open_batches(
             Format::Csv => {
                 // Numbers are read as text and parsed by `csv::Decode`.
                 let reader = arrow_csv::ReaderBuilder::new(Arc::new(csv::reader_schema(&schema)))
-                    .with_header(true)
+                    .with_header(csv::header_is_record(&schema))
                     .with_comment(csv::COMMENT)
                     .with_batch_size(batch_rows)
                     .with_projection(projection)

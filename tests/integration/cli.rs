@@ -901,9 +901,9 @@ fn a_csv_without_its_last_line_end_is_noted() {
     }
 }
 
-/// EuRoC/ASL `imu0.csv`: its header is a comment line with `rad s^-1` and `m s^-2` units. As
-/// written, the error says the comment looks like the header; without the `#` the units read as
-/// rad/s and m/s² and the channels as gyro and accelerometer.
+/// EuRoC/ASL `imu0.csv`: its header is a comment line with `rad s^-1` and `m s^-2` units. It is
+/// read as the header, with every record below it data: the same recording as the file with the
+/// `#` removed (rows, rate, units, kinds), and a bad value's row and line counted from the comment.
 #[test]
 fn a_euroc_header_is_recognised() {
     let dir = tempfile::tempdir().unwrap();
@@ -915,20 +915,46 @@ fn a_euroc_header_is_recognised() {
     }
     std::fs::write(dir.path().join("imu0.csv"), &text).unwrap();
     std::fs::write(dir.path().join("fixed.csv"), &text[1..]).unwrap();
-    let out = imunoise(&["info", "imu0.csv"], dir.path());
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_ne!(out.status.code(), Some(0));
-    assert!(
-        stderr.contains(
-            "`#timestamp [ns],w_RS_S_x [rad s^-1],a_RS_S_x [m s^-2]`, looks like the header"
-        ),
-        "{stderr}"
-    );
-    let out = run_ok(&["info", "fixed.csv", "--json"], dir.path());
-    let doc: Value = serde_json::from_slice(&out.stdout).unwrap();
-    let channels = &doc["files"][0]["recording"]["channels"];
+    let recording = |file: &str| {
+        let out = run_ok(&["info", file, "--json"], dir.path());
+        let doc: Value = serde_json::from_slice(&out.stdout).unwrap();
+        doc["files"][0]["recording"].clone()
+    };
+    let (euroc, fixed) = (recording("imu0.csv"), recording("fixed.csv"));
+    let channels = &euroc["channels"];
     assert_eq!(channels[0]["unit"], "rad/s", "{channels}");
     assert_eq!(channels[0]["kind"], "gyro", "{channels}");
     assert_eq!(channels[1]["unit"], "m/s^2", "{channels}");
     assert_eq!(channels[1]["kind"], "accel", "{channels}");
+    for key in ["channels", "samples", "rate_hz", "duration_s"] {
+        assert_eq!(euroc[key], fixed[key], "{key}: {euroc}");
+    }
+    assert_eq!(euroc["samples"], 3000, "the first record is data: {euroc}");
+
+    // A bad value in data row 10: line 12 of the file (the comment is line 1).
+    let mut lines: Vec<&str> = text.lines().collect();
+    let bad = lines[11].replacen(",", ",oops", 1);
+    lines[11] = &bad;
+    std::fs::write(dir.path().join("bad.csv"), lines.join("\n") + "\n").unwrap();
+    let out = imunoise(&["info", "bad.csv"], dir.path());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_ne!(out.status.code(), Some(0));
+    assert!(
+        stderr.contains("w_RS_S_x") && stderr.contains("row 10") && stderr.contains("line 12"),
+        "{stderr}"
+    );
+
+    // Numbers under a comment that does not name each column: still no header.
+    std::fs::write(
+        dir.path().join("headless.csv"),
+        "# logged by rig 4\n1,2\n3,4\n",
+    )
+    .unwrap();
+    let out = imunoise(&["info", "headless.csv"], dir.path());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_ne!(out.status.code(), Some(0));
+    assert!(
+        stderr.contains("holds numbers, not column names"),
+        "{stderr}"
+    );
 }

@@ -15,7 +15,11 @@
 //!
 //! Lines starting with `#` are comments, before the header and after it. A comment before the header
 //! of the form `# sample_rate_hz: 200` (or `= 200`) gives the sample rate, as the schema metadata key
-//! of the same name does in the typed formats.
+//! of the same name does in the typed formats. Where the first line that is not a comment holds
+//! only numbers and the comment just before it names as many columns (two or more, not all
+//! numbers), that comment is the header: EuRoC/ASL and TUM-VI files write it so
+//! (`#timestamp [ns],w_RS_S_x [rad s^-1],…`). The schema then carries [`HEADER_KEY`], and every
+//! reader of the file takes its first record as data row 0.
 
 use std::collections::HashMap;
 use std::fs::File;
@@ -42,6 +46,29 @@ pub const NUMERIC_SHARE: f64 = 0.9;
 
 /// The preamble key that gives the sample rate.
 const RATE_KEY: &str = "sample_rate_hz";
+
+/// The schema metadata key set (to [`HEADER_IN_COMMENT`]) where the header is the last comment
+/// line before the data, so that every reader of the file takes its first record as data.
+pub const HEADER_KEY: &str = "csv_header";
+const HEADER_IN_COMMENT: &str = "comment";
+
+/// Whether a CSV schema from [`schema`] has its header as a record of the file (not a comment).
+pub fn header_is_record(schema: &Schema) -> bool {
+    schema.metadata().get(HEADER_KEY).map(String::as_str) != Some(HEADER_IN_COMMENT)
+}
+
+/// Whether the comment text `comment` (after its `#`) is the header of the data whose first
+/// record is `first`: `first` holds numbers only, and `comment` has as many comma-separated
+/// fields, at least two (a lone note such as `# sample_rate_hz: 200` above a single column is
+/// not a header), not all of them numbers.
+fn is_header_of(comment: &str, first: &RawRecord) -> bool {
+    let fields: Vec<&str> = comment.split(',').collect();
+    let numbers = |f: &[u8]| matches!(cell(&String::from_utf8_lossy(f)), Cell::Number(_));
+    fields.len() >= 2
+        && fields.len() == first.fields.len()
+        && first.fields.iter().all(|f| numbers(f))
+        && !fields.iter().all(|f| numbers(f.as_bytes()))
+}
 
 /// Longest cell text quoted in an error message.
 const SHOWN_CHARS: usize = 60;
@@ -88,7 +115,7 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
     rewind(file).map_err(io_error)?;
 
     let mut scanner = Scanner::new(BufReader::new(&mut *file));
-    let Some(header) = scanner.next_record().map_err(io_error)? else {
+    let Some(first) = scanner.next_record().map_err(io_error)? else {
         return Err(malformed(
             path,
             None,
@@ -96,6 +123,23 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
             "no header line: the file holds only comments or blank lines".into(),
         ));
     };
+    // EuRoC/ASL files (and TUM-VI, and loggers after them) write their header as the last comment
+    // (`#timestamp [ns],w_RS_S_x [rad s^-1],…`) above rows of numbers only: that comment is the
+    // header, and the first line that is not a comment the first data row.
+    let comment_header = last_comment
+        .filter(|c| is_header_of(&c.text, &first))
+        .map(|c| RawRecord {
+            line: c.line,
+            fields: c.text.split(',').map(|f| f.as_bytes().to_vec()).collect(),
+        });
+    let (header, mut pending) = match comment_header {
+        Some(h) => (h, Some(first)),
+        None => (first, None),
+    };
+    let mut metadata = metadata;
+    if pending.is_some() {
+        metadata.insert(HEADER_KEY.to_string(), HEADER_IN_COMMENT.to_string());
+    }
     let mut names = Vec::with_capacity(header.fields.len());
     for (i, bytes) in header.fields.iter().enumerate() {
         match std::str::from_utf8(bytes) {
@@ -134,28 +178,16 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
         }
     }
     if names.iter().all(|n| matches!(cell(n), Cell::Number(_))) {
-        // EuRoC/ASL files write their header as a comment (`#timestamp [ns],w_RS_S_x [rad s^-1],
-        // …`): say so where the comment above has as many names as the row has numbers.
-        let hint = last_comment
-            .filter(|c| {
-                let fields: Vec<&str> = c.split(',').collect();
-                fields.len() == names.len()
-                    && !fields.iter().all(|f| matches!(cell(f), Cell::Number(_)))
-            })
-            .map_or(String::new(), |c| {
-                format!(
-                    "; the comment line above, `#{}`, looks like the header: remove its `#` \
-                     (EuRoC/ASL files write the header so)",
-                    shown(&c)
-                )
-            });
         return Err(malformed(
             path,
             None,
             Some(header.line),
             format!(
                 "the first line that is not a comment holds numbers, not column names; a header \
-                 line (e.g. `time [s],gyro_x [deg/s]`) is needed{hint}"
+                 line (e.g. `time [s],gyro_x [deg/s]`) is needed, or a comment line just above \
+                 the numbers with a name for each of their {} columns (as EuRoC/ASL files write \
+                 it: `#timestamp [ns],w_RS_S_x [rad s^-1],…`)",
+                names.len()
             ),
         ));
     }
@@ -165,8 +197,12 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
 
     let mut stats = vec![ColumnStats::default(); names.len()];
     for row in 0..INFER_ROWS as u64 {
-        let Some(record) = scanner.next_record().map_err(io_error)? else {
-            break;
+        let record = match pending.take() {
+            Some(r) => r,
+            None => match scanner.next_record().map_err(io_error)? {
+                Some(r) => r,
+                None => break,
+            },
         };
         check_record(path, &bare, &record, row)?;
         for (s, bytes) in stats.iter_mut().zip(&record.fields) {
@@ -179,7 +215,7 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
     // arrow-csv's inference, for the types beyond numbers and text (timestamps, dates, booleans).
     rewind(file).map_err(io_error)?;
     let (inferred, _) = arrow_csv::reader::Format::default()
-        .with_header(true)
+        .with_header(!metadata.contains_key(HEADER_KEY))
         .with_comment(COMMENT)
         .infer_schema(BufReader::new(&mut *file), Some(INFER_ROWS))
         .map_err(|e| malformed(path, None, None, super::plain(&e.to_string())))?;
@@ -324,11 +360,13 @@ pub fn open(path: &Path) -> std::io::Result<File> {
 fn preamble(
     path: &Path,
     mut reader: impl BufRead,
-) -> Result<(HashMap<String, String>, Option<String>), InputError> {
+) -> Result<(HashMap<String, String>, Option<Comment>), InputError> {
     let mut metadata = HashMap::new();
     let mut last_comment = None;
     let mut line = Vec::new();
+    let mut number = 0u64;
     loop {
+        number += 1;
         line.clear();
         let n = reader
             .read_until(b'\n', &mut line)
@@ -352,9 +390,18 @@ fn preamble(
                 metadata.insert(RATE_KEY.to_string(), value.trim().to_string());
             }
         }
-        last_comment = Some(comment.to_owned());
+        last_comment = Some(Comment {
+            line: number,
+            text: comment.to_owned(),
+        });
     }
     Ok((metadata, last_comment))
+}
+
+/// A comment line before the header: its 1-based line and its text after `#`.
+struct Comment {
+    line: u64,
+    text: String,
 }
 
 fn malformed(path: &Path, row: Option<u64>, line: Option<u64>, message: String) -> InputError {
@@ -532,7 +579,9 @@ impl Decode {
     fn structural_error(&self, first_row: u64, end_row: u64) -> Option<InputError> {
         let names = self.names();
         let mut scanner = Scanner::new(BufReader::new(open(&self.path).ok()?));
-        scanner.next_record().ok()??;
+        if header_is_record(&self.schema) {
+            scanner.next_record().ok()??;
+        }
         let mut row = 0u64;
         while row < end_row {
             let record = scanner.next_record().ok()??;
@@ -553,7 +602,7 @@ impl Decode {
         batch_rows: usize,
     ) -> Option<arrow_csv::reader::Reader<File>> {
         arrow_csv::ReaderBuilder::new(Arc::new(reader_schema(&self.schema)))
-            .with_header(true)
+            .with_header(header_is_record(&self.schema))
             .with_comment(COMMENT)
             .with_bounds(usize::try_from(rows.0).ok()?, usize::try_from(rows.1).ok()?)
             .with_batch_size(batch_rows)
@@ -603,8 +652,19 @@ impl Decode {
 
 /// The record of a data row (0-based, the header is not a row).
 fn record_of_row(path: &Path, row: u64) -> Option<RawRecord> {
+    let (_, last_comment) = preamble(path, BufReader::new(open(path).ok()?)).ok()?;
     let mut scanner = Scanner::new(BufReader::new(open(path).ok()?));
-    scanner.next_record().ok()??;
+    let first = scanner.next_record().ok()??;
+    if last_comment.is_some_and(|c| is_header_of(&c.text, &first)) {
+        // The header is a comment: the first record is row 0.
+        if row == 0 {
+            return Some(first);
+        }
+        for _ in 1..row {
+            scanner.next_record().ok()??;
+        }
+        return scanner.next_record().ok()?;
+    }
     for _ in 0..row {
         scanner.next_record().ok()??;
     }
