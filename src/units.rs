@@ -296,6 +296,16 @@ impl From<Unit> for ScaledUnit {
     }
 }
 
+impl fmt::Display for ScaledUnit {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.factor == 1.0 {
+            write!(f, "{}", self.unit)
+        } else {
+            write!(f, "{} {}", self.factor, self.unit)
+        }
+    }
+}
+
 impl FromStr for ScaledUnit {
     type Err = UnknownUnit;
     fn from_str(s: &str) -> Result<Self, Self::Err> {

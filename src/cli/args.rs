@@ -203,14 +203,16 @@ pub struct InputArgs {
     #[arg(long, value_name = "HZ")]
     pub rate: Option<f64>,
 
-    /// Unit of a column, overriding its metadata: COLUMN=UNIT, or *=UNIT for all columns. Units:
-    /// rad/s, mrad/s, deg/s, deg/h, m/s^2, g, mg, ug, degC, K, V, mV, 1 (and the spellings the
-    /// README lists). Raw counts: one count's worth in front, COLUMN="0.00875 deg/s". Repeatable.
+    /// Unit of a column, overriding its metadata: COLUMN=UNIT; COLUMN may be a pattern with * and
+    /// ? ('gyro_*=deg/s', '*=UNIT' for all columns; the exact name, then the longest pattern
+    /// wins). Units: rad/s, mrad/s, deg/s, deg/h, m/s^2, g, mg, ug, degC, K, V, mV, 1 (and the
+    /// spellings the README lists). Raw counts: one count's worth in front, COLUMN="0.00875
+    /// deg/s". Repeatable.
     #[arg(long = "unit", value_name = "COLUMN=UNIT")]
     pub units: Vec<String>,
 
-    /// Kind of a column, overriding its metadata: COLUMN=KIND or *=KIND, KIND one of gyro, accel,
-    /// temperature, aux. Repeatable.
+    /// Kind of a column, overriding its metadata: COLUMN=KIND, COLUMN a name or a pattern as for
+    /// --unit, KIND one of gyro, accel, temperature, aux. Repeatable.
     #[arg(long = "kind", value_name = "COLUMN=KIND")]
     pub kinds: Vec<String>,
 

@@ -161,9 +161,11 @@ pub struct TimeSpec {
 pub struct ColumnOverrides {
     /// Analyse only these columns, in this order (all numeric non-time columns when empty).
     pub channels: Vec<String>,
-    /// `(column or "*", unit)`, the unit with a factor where one count is not one unit.
+    /// `(column or pattern, unit)`, the unit with a factor where one count is not one unit. A
+    /// pattern holds `*` (any run of characters) or `?` (one character): `*` alone is every
+    /// column, `gyro_*` the gyro columns (see [`lookup`] for which entry wins).
     pub units: Vec<(String, ScaledUnit)>,
-    /// `(column or "*", kind)`.
+    /// `(column or pattern, kind)`.
     pub kinds: Vec<(String, Kind)>,
     /// The time column's name, when not `time`/`timestamp`.
     pub time_column: Option<String>,
@@ -182,13 +184,54 @@ impl ColumnOverrides {
     }
 }
 
-/// An exact column match wins over `*`.
+/// The entry for `column`: its exact name wins; else, of the patterns that match it, the most
+/// specific (most characters that are not wildcards: `accel_*` over `*`); of equally specific
+/// ones, the last given ([`check_override_columns`] refuses two of them that disagree).
 fn lookup<T: Copy>(entries: &[(String, T)], column: &str) -> Option<T> {
+    if let Some((_, v)) = entries.iter().rev().find(|(c, _)| c == column) {
+        return Some(*v);
+    }
     entries
         .iter()
-        .find(|(c, _)| c == column)
-        .or_else(|| entries.iter().find(|(c, _)| c == "*"))
+        .filter(|(c, _)| is_pattern(c) && matches_pattern(c, column))
+        .max_by_key(|(c, _)| specificity(c))
         .map(|(_, v)| *v)
+}
+
+/// Whether a `--unit`/`--kind` column is a pattern.
+fn is_pattern(column: &str) -> bool {
+    column.contains(['*', '?'])
+}
+
+/// Characters of a pattern that are not wildcards.
+fn specificity(pattern: &str) -> usize {
+    pattern.chars().filter(|c| !matches!(c, '*' | '?')).count()
+}
+
+/// Whether `name` matches `pattern` (`*` any run of characters, `?` one character; the rest
+/// literally, letter case included, as column names are).
+pub fn matches_pattern(pattern: &str, name: &str) -> bool {
+    let p: Vec<char> = pattern.chars().collect();
+    let n: Vec<char> = name.chars().collect();
+    // Greedy matching with backtracking to the last star: linear in practice.
+    let (mut i, mut j) = (0, 0);
+    let mut star: Option<(usize, usize)> = None;
+    while j < n.len() {
+        if i < p.len() && (p[i] == '?' || p[i] == n[j]) {
+            i += 1;
+            j += 1;
+        } else if i < p.len() && p[i] == '*' {
+            star = Some((i, j));
+            i += 1;
+        } else if let Some((si, sj)) = star {
+            i = si + 1;
+            j = sj + 1;
+            star = Some((si, sj + 1));
+        } else {
+            return false;
+        }
+    }
+    p[i..].iter().all(|&c| c == '*')
 }
 
 /// Types a channel column may have: integers and floats of every width, decimals, and a
@@ -534,13 +577,60 @@ pub fn check_override_columns(
         .iter()
         .map(|(c, _)| ("--unit", c))
         .chain(overrides.kinds.iter().map(|(c, _)| ("--kind", c)));
+    let names: Vec<&str> = schema.fields().iter().map(|f| f.name().as_str()).collect();
     for (flag, column) in named {
-        if column != "*" && schema.index_of(column).is_err() {
+        let found = if is_pattern(column) {
+            // `*` is every column, also of a file that has none to give it to.
+            column == "*" || names.iter().any(|n| matches_pattern(column, n))
+        } else {
+            names.contains(&column.as_str())
+        };
+        if !found {
             return Err(InputError::UnknownFlagColumn {
                 path: path.to_path_buf(),
                 flag,
                 column: column.clone(),
                 available: column_list(schema),
+            });
+        }
+    }
+    check_patterns_agree(path, &names, "--unit", &overrides.units)?;
+    check_patterns_agree(path, &names, "--kind", &overrides.kinds)
+}
+
+/// Two patterns equally specific for a column, giving it different values, leave which one the
+/// user meant unknown: an error naming both, not a unit picked by the flags' order.
+fn check_patterns_agree<T: PartialEq + std::fmt::Display>(
+    path: &Path,
+    names: &[&str],
+    flag: &'static str,
+    entries: &[(String, T)],
+) -> Result<(), InputError> {
+    for name in names {
+        if entries.iter().any(|(c, _)| c == name) {
+            continue;
+        }
+        let matching: Vec<&(String, T)> = entries
+            .iter()
+            .filter(|(c, _)| is_pattern(c) && matches_pattern(c, name))
+            .collect();
+        let Some(best) = matching.iter().map(|(c, _)| specificity(c)).max() else {
+            continue;
+        };
+        let top: Vec<&&(String, T)> = matching
+            .iter()
+            .filter(|(c, _)| specificity(c) == best)
+            .collect();
+        if let Some(other) = top.iter().find(|(_, v)| *v != top[0].1) {
+            return Err(InputError::OptionOutOfRange {
+                path: path.to_path_buf(),
+                flag,
+                message: format!(
+                    "column {name:?} matches both {:?} and {:?}, which say different things \
+                     ({} and {}); name the column itself ({flag} {name}=…) or make one \
+                     pattern longer",
+                    top[0].0, other.0, top[0].1, other.1
+                ),
             });
         }
     }
@@ -783,6 +873,76 @@ mod tests {
         let ch = select_channels(p, &schema, Some(&time), &ov).unwrap();
         assert_eq!(ch[1].unit, Some(Unit::MilliG));
         assert_eq!(ch[0].kind, Kind::Aux);
+    }
+
+    #[test]
+    fn patterns_match_as_shell_globs() {
+        for (p, n, m) in [
+            ("*", "gyro_x", true),
+            ("gyro_*", "gyro_x", true),
+            ("gyro_*", "gyro_", true),
+            ("gyro_*", "accel_x", false),
+            ("*_x", "gyro_x", true),
+            ("*_x", "gyro_y", false),
+            ("g?ro_?", "gyro_z", true),
+            ("g?ro_?", "gyro_zz", false),
+            ("*a*b*", "xxaxxbxx", true),
+            ("*a*b", "xxaxxbxxb", true),
+            ("*a*b", "xxaxxbxxc", false),
+            ("Gyro_*", "gyro_x", false),
+            ("w_RS_S_*", "w_RS_S_x", true),
+            ("°*", "°c", true),
+        ] {
+            assert_eq!(matches_pattern(p, n), m, "{p} vs {n}");
+        }
+    }
+
+    /// `--unit 'gyro_*=0.00875 deg/s' --unit 'accel_*=0.000122 g'`: each pattern reaches its
+    /// columns; the exact name wins over a pattern and a longer pattern over `*`; a pattern that
+    /// matches no column, or two equally specific ones that disagree, are errors.
+    #[test]
+    fn patterns_in_unit_and_kind_flags() {
+        let schema = Schema::new(vec![
+            field("gyro_x", DataType::Int16, &[]),
+            field("gyro_y", DataType::Int16, &[]),
+            field("accel_x", DataType::Int16, &[]),
+            field("temp", DataType::Float64, &[]),
+        ]);
+        let p = Path::new("x.arrow");
+        let dps: ScaledUnit = "0.00875 deg/s".parse().unwrap();
+        let g: ScaledUnit = "0.000122 g".parse().unwrap();
+        let mut ov = ColumnOverrides::default();
+        ov.units.push(("*".into(), Unit::DegC.into()));
+        ov.units.push(("gyro_*".into(), dps));
+        ov.units.push(("accel_?".into(), g));
+        ov.units.push(("gyro_y".into(), Unit::DegPerS.into()));
+        check_override_columns(p, &schema, &ov).unwrap();
+        let ch = select_channels(p, &schema, None, &ov).unwrap();
+        let unit = |i: usize| (ch[i].unit, ch[i].kind);
+        assert_eq!(unit(0), (Some(Unit::DegPerS), Kind::Gyro));
+        assert!((ch[0].to_si().0 - 0.00875 * std::f64::consts::PI / 180.0).abs() < 1e-18);
+        assert!((ch[1].to_si().0 - std::f64::consts::PI / 180.0).abs() < 1e-15);
+        assert_eq!(unit(2), (Some(Unit::G), Kind::Accel));
+        assert_eq!(unit(3), (Some(Unit::DegC), Kind::Temperature));
+
+        let mut none = ColumnOverrides::default();
+        none.units.push(("gyr_*".into(), dps));
+        let err = check_override_columns(p, &schema, &none).unwrap_err();
+        assert!(matches!(err, InputError::UnknownFlagColumn { .. }), "{err}");
+
+        let mut clash = ColumnOverrides::default();
+        clash.units.push(("gyro_*".into(), dps));
+        clash.units.push(("*_x".into(), g));
+        clash.units.push(("g*_?".into(), g));
+        // gyro_* (5) and g*_? (2) against *_x (2): gyro_* is the most specific for gyro_x.
+        check_override_columns(p, &schema, &clash).unwrap();
+        clash.units.push(("gyro?x".into(), g));
+        let err = check_override_columns(p, &schema, &clash).unwrap_err();
+        let text = err.to_string();
+        assert!(
+            text.contains("\"gyro_x\"") && text.contains("gyro_*") && text.contains("gyro?x"),
+            "{text}"
+        );
     }
 
     #[test]

@@ -465,6 +465,63 @@ fn flags_that_do_not_fit_the_file_are_refused_by_name() {
     assert!(stderr(&out).contains("--on-gap fill"), "{}", stderr(&out));
 }
 
+/// Raw counts of six axes given their scale by two patterns, as a datasheet states them.
+#[test]
+fn unit_patterns_reach_every_axis_they_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("time,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z\n");
+    for i in 0..2000 {
+        let c = |k: i64| (i * 7919 + k * 104729) % 41 - 20;
+        text.push_str(&format!(
+            "{},{},{},{},{},{},{}\n",
+            i as f64 * 0.01,
+            c(1),
+            c(2),
+            c(3),
+            c(4),
+            c(5),
+            8196 + c(6)
+        ));
+    }
+    std::fs::write(dir.path().join("counts.csv"), text).unwrap();
+    let out = run_ok(
+        &[
+            "info",
+            "counts.csv",
+            "--unit",
+            "gyro_*=0.00875 deg/s",
+            "--unit",
+            "accel_?=0.000122 g",
+            "--json",
+        ],
+        dir.path(),
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let channels = doc["files"][0]["recording"]["channels"].as_array().unwrap();
+    assert_eq!(channels.len(), 6);
+    for ch in channels {
+        let gyro = ch["name"].as_str().unwrap().starts_with("gyro");
+        let (unit, kind, scale) = if gyro {
+            ("deg/s", "gyro", 0.00875)
+        } else {
+            ("g", "accel", 0.000122)
+        };
+        assert_eq!(
+            (ch["unit"].as_str(), ch["kind"].as_str()),
+            (Some(unit), Some(kind)),
+            "{ch}"
+        );
+        assert_eq!(ch["scale"].as_f64(), Some(scale), "{ch}");
+    }
+    let out = imunoise(&["info", "counts.csv", "--unit", "gyr_*=deg/s"], dir.path());
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--unit names column \"gyr_*\""),
+        "{}",
+        stderr(&out)
+    );
+}
+
 #[test]
 fn a_file_without_units_is_not_analysed_as_nothing() {
     let dir = tempfile::tempdir().unwrap();
