@@ -93,6 +93,8 @@ pub struct Cleaner {
     rows_read: u64,
     samples_out: u64,
     gaps: Vec<Gap>,
+    /// The longest gaps (at most [`MAX_LISTED_GAPS`]), wherever they are in the record.
+    longest_gaps: Vec<Gap>,
     gap_count: u64,
     missing: u64,
     filled: u64,
@@ -100,6 +102,27 @@ pub struct Cleaner {
     /// Rows dropped because their timestamp repeated the previous row's.
     duplicates: u64,
     last_time: f64,
+}
+
+/// Adds `gap` to `longest` (at most [`MAX_LISTED_GAPS`], kept in the order of the record) when
+/// it is longer than the shortest there: the gaps whose joins the residual loop must not read as
+/// bias steps are the long ones, wherever they fall (a record with hundreds of one-sample drops
+/// before a 5-s gap listed only the drops).
+fn keep_longest(longest: &mut Vec<Gap>, gap: &Gap) {
+    if longest.len() < MAX_LISTED_GAPS {
+        longest.push(gap.clone());
+        return;
+    }
+    let (shortest, s) = longest
+        .iter()
+        .enumerate()
+        .min_by_key(|(_, g)| g.missing_samples)
+        .map(|(i, g)| (i, g.missing_samples))
+        .unwrap_or((0, u64::MAX));
+    if gap.missing_samples > s {
+        longest.remove(shortest);
+        longest.push(gap.clone());
+    }
 }
 
 impl Cleaner {
@@ -134,6 +157,7 @@ impl Cleaner {
             rows_read: 0,
             samples_out: 0,
             gaps: Vec::new(),
+            longest_gaps: Vec::new(),
             gap_count: 0,
             missing: 0,
             filled: 0,
@@ -205,6 +229,7 @@ impl Cleaner {
             nonfinite_policy: self.options.nonfinite,
             gap_policy: self.options.gaps,
             gaps: self.gaps,
+            longest_gaps: self.longest_gaps,
             gap_count: self.gap_count,
             missing_samples: self.missing,
             filled_samples: self.filled,
@@ -303,13 +328,15 @@ impl Cleaner {
         }
         self.gap_count += 1;
         self.missing += missing;
+        let gap = Gap {
+            row,
+            after_s: p,
+            duration_s: dt,
+            missing_samples: missing,
+        };
+        keep_longest(&mut self.longest_gaps, &gap);
         if self.gaps.len() < MAX_LISTED_GAPS {
-            self.gaps.push(Gap {
-                row,
-                after_s: p,
-                duration_s: dt,
-                missing_samples: missing,
-            });
+            self.gaps.push(gap);
         }
         Ok(TimeStep::Gap(missing))
     }

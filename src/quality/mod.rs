@@ -174,6 +174,10 @@ pub struct QualityReport {
     pub nonfinite_policy: NonFinitePolicy,
     pub gap_policy: GapPolicy,
     pub gaps: Vec<Gap>,
+    /// The longest gaps (at most [`MAX_LISTED_GAPS`]) in the order of the record, wherever they
+    /// fall, for [`QualityReport::filled_stretches`]; `gaps` lists the first ones.
+    #[serde(skip)]
+    pub longest_gaps: Vec<Gap>,
     pub gap_count: u64,
     pub missing_samples: u64,
     pub filled_samples: u64,
@@ -222,21 +226,23 @@ impl QualityReport {
             .is_none_or(|c| c.verdicts.iter().all(ChannelVerdict::analysable))
     }
 
-    /// Where the series the estimators see is no measurement, as far as the gaps are listed
-    /// ([`MAX_LISTED_GAPS`]), in seconds of that series at `rate_hz`: the stretches (start, end)
+    /// Where the series the estimators see is no measurement, at the gaps listed and the longest
+    /// ones ([`MAX_LISTED_GAPS`] each), in seconds of that series at `rate_hz`: the stretches (start, end)
     /// that `--on-gap fill` filled with a straight line, or the joins (t, t) where `--on-gap
     /// ignore` put a gap's two sides next to each other (the sensor's bias moved on in the
     /// missing time, so the series jumps there: a 30-s gap joined over was read as an
     /// excursion's end); none under `error`.
     pub fn filled_stretches(&self, rate_hz: f64) -> Vec<(f64, f64)> {
+        // The first gaps listed and the longest anywhere, each once, in the record's order.
+        let mut gaps: Vec<&Gap> = self.gaps.iter().chain(&self.longest_gaps).collect();
+        gaps.sort_by_key(|g| g.row);
+        gaps.dedup_by_key(|g| g.row);
         match self.gap_policy {
-            GapPolicy::Fill => self
-                .gaps
+            GapPolicy::Fill => gaps
                 .iter()
                 .map(|g| (g.after_s, g.after_s + g.duration_s))
                 .collect(),
-            GapPolicy::Ignore if rate_hz > 0.0 => self
-                .gaps
+            GapPolicy::Ignore if rate_hz > 0.0 => gaps
                 .iter()
                 .map(|g| {
                     let t = g.row as f64 / rate_hz;

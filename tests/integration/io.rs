@@ -378,6 +378,49 @@ fn time_column_problems_name_the_row() {
     }
 }
 
+/// Hundreds of one-sample drops, then a 5-s gap: the report lists the first gaps, and the
+/// stretches the residual loop must not read as bias steps hold the long one wherever it falls.
+#[test]
+fn the_longest_gaps_are_guarded_beyond_the_listed_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 20_000;
+    let step = 10_000_000i64;
+    // One sample missing after every 50th row up to row 15 000 (300 drops), then 500 missing
+    // before row 18 000.
+    let late = move |i: usize| -> i64 {
+        let drops = (i.min(15_000) / 50) as i64;
+        drops * step + if i >= 18_000 { 500 * step } else { 0 }
+    };
+    let path = recording(
+        dir.path(),
+        "drops.arrow",
+        vec![
+            time_col(n, RATE, move |i, t| t + late(i)),
+            f64_col("g", (0..n).map(|i| i as f64).collect(), None),
+        ],
+        None,
+    );
+    let mut inputs = Inputs::default();
+    inputs.quality.gaps = GapPolicy::Fill;
+    let (_, report) = read_all(&path, &inputs).unwrap();
+    assert_eq!(report.gap_count, 301);
+    assert_eq!(report.gaps.len(), imunoise::quality::MAX_LISTED_GAPS);
+    assert!(report.gaps.iter().all(|g| g.row < 18_000));
+    let stretches = report.filled_stretches(RATE);
+    let long = stretches
+        .iter()
+        .find(|(a, b)| b - a > 4.0)
+        .expect("the 5-s gap is guarded");
+    // The gap starts after row 17 999, which lies 17 999 periods + 300 drops in.
+    assert!(
+        (long.0 - (17_999.0 + 300.0) / RATE).abs() < 1e-6,
+        "{long:?}"
+    );
+    assert!((long.1 - long.0 - 5.01).abs() < 1e-6, "{long:?}");
+    // Each gap once, in the record's order.
+    assert!(stretches.windows(2).all(|w| w[0].0 < w[1].0));
+}
+
 #[test]
 fn gaps_are_errors_unless_ignored_or_filled() {
     let dir = tempfile::tempdir().unwrap();
