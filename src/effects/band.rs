@@ -70,7 +70,20 @@ pub fn fit_in_band(
     let mut bandwidth = match (binned, opts.detect_bandwidth) {
         (Some(binned), true) => {
             let taus = dev.map_or(&[][..], |d| &d.tau_s[..]);
-            detect_bandwidth(psd, binned, taus, opts)
+            // The roll-off is looked for over the whole spectrum, whatever band the user keeps
+            // the spectrum fit to (`--fit-max-freq`): searched inside a 20-Hz limit, the
+            // 250-Hz filter of a 1-kHz sensor was not found, the Allan fit then started at
+            // τ = 1 ms inside its droop (χ²/dof 5·10⁴), and N came out "not significant" with
+            // an upper limit of 0.46× the truth, which imu.yaml took. The band the fits keep is
+            // the narrower of the two ([`Bandwidth::restrict`]).
+            let mut whole = opts.clone();
+            whole.max_freq_hz = None;
+            detect_bandwidth(psd, binned, taus, &whole).map(|mut b| {
+                if let Some(user) = opts.max_freq_hz {
+                    b.fit_max_freq_hz = b.fit_max_freq_hz.min(user);
+                }
+                b
+            })
         }
         _ => None,
     };

@@ -66,6 +66,41 @@ fn a_sensor_low_pass_is_found_and_the_fits_stay_inside_it() {
     }
 }
 
+/// A user's band limit far below the filter (`--fit-max-freq`): the filter is still found over
+/// the whole spectrum and the Allan fit still starts above its droop; the spectrum fit keeps the
+/// user's band. Searched inside the user's band, the filter went unseen and N came out "not
+/// significant" with an upper limit of 0.46× the truth.
+#[test]
+fn a_user_band_limit_keeps_the_filter_found() {
+    let lp = LowPassSpec {
+        corner_hz: 20.0,
+        order: 2,
+    };
+    let y = record(Some(lp), 3000.0, 64);
+    let mut cfg = config();
+    cfg.fit.max_freq_hz = Some(4.0);
+    let o = close_loop(&y, FS, &[], &cfg, None).expect("loop ran");
+    let b = o
+        .report
+        .bandwidth
+        .expect("roll-off found beyond the user's band");
+    assert!((b.lowpass.corner_hz / 20.0 - 1.0).abs() < 0.25, "{b:?}");
+    assert!(b.fit_max_freq_hz <= 4.0, "the user's band: {b:?}");
+    assert!(
+        b.fit_min_tau_s.is_some_and(|t| t > 0.01 && t <= 2.0),
+        "{b:?}"
+    );
+    for fit in [o.allan.as_ref(), o.spectrum.as_ref()] {
+        let fit = fit.expect("fit");
+        let n = fit.get(Term::RandomWalk).expect("N kept").value;
+        assert!(
+            (n / truth().n - 1.0).abs() < 0.04,
+            "{:?}: N {n}",
+            fit.domain
+        );
+    }
+}
+
 #[test]
 fn no_roll_off_is_claimed_without_a_filter() {
     for seed in 70..74 {
