@@ -230,12 +230,21 @@ pub fn assess(mut records: Vec<ChannelRecord>, spec: &Spec) -> Fleet {
                 .or_default() += 1;
         }
     }
+    let copies = same_data(&records);
     let rows = records
         .into_iter()
         .map(|record| {
             let mut terms = [TermAssessment::default(); 5];
             let mut unusual = Vec::new();
             let mut reasons = Vec::new();
+            if let Some(others) = copies.get(record.key.as_str()) {
+                reasons.push(format!(
+                    "same data as {}: every channel's length and estimates agree to the last \
+                     digit, which only the same samples give (a copy under another name hides \
+                     a sensor missing from the batch)",
+                    others.join(", ")
+                ));
+            }
             if let (Status::Ok, Some(sensor)) = (record.status, record.kind) {
                 for term in Term::ALL {
                     let a = &mut terms[term.index()];
@@ -345,6 +354,51 @@ pub fn assess(mut records: Vec<ChannelRecord>, spec: &Spec) -> Fleet {
     }
 }
 
+/// The inputs whose analysed channels agree with another input's in every channel's name, sample
+/// count and every estimate's bits (value and interval of each term): the same samples, read
+/// twice (a file copied under another name, or to two folders). Each such input's key maps to
+/// the paths of the others. Inputs with no analysed channel are never copies: two files that
+/// fail alike say nothing. Different encodings of the same data (CSV text and Arrow floats)
+/// round differently and are not found.
+fn same_data(records: &[ChannelRecord]) -> BTreeMap<String, Vec<String>> {
+    let mut prints: BTreeMap<&str, (Vec<u64>, &str)> = BTreeMap::new();
+    for r in records
+        .iter()
+        .filter(|r| r.status == Status::Ok && r.analysed)
+    {
+        let entry = prints.entry(r.key.as_str()).or_insert((Vec::new(), &r.rel));
+        let name = r.channel.as_deref().unwrap_or("");
+        // The name folded into one word, then the numbers' bits.
+        entry
+            .0
+            .push(name.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+                (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+            }));
+        entry.0.push(r.samples.unwrap_or(0));
+        for t in &r.terms {
+            for v in [t.value, t.lo, t.hi, t.upper] {
+                entry.0.push(v.map_or(u64::MAX, f64::to_bits));
+            }
+        }
+    }
+    let mut groups: BTreeMap<&[u64], Vec<(&str, &str)>> = BTreeMap::new();
+    for (key, (print, rel)) in &prints {
+        groups.entry(print.as_slice()).or_default().push((key, rel));
+    }
+    let mut out = BTreeMap::new();
+    for members in groups.values().filter(|m| m.len() > 1) {
+        for (key, _) in members {
+            let others = members
+                .iter()
+                .filter(|(k, _)| k != key)
+                .map(|(_, rel)| rel.to_string())
+                .collect();
+            out.insert(key.to_string(), others);
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -379,6 +433,50 @@ mod tests {
         r.effects_detail = effects.iter().map(|s| format!("{s} detail")).collect();
         r.effects_delta_bic = vec![-100.0; effects.len()];
         r
+    }
+
+    /// A file copied under another name: both copies are flagged, each naming the other; a
+    /// sibling that differs in one bit of one estimate, or two inputs that both failed, are not.
+    #[test]
+    fn copies_of_one_recording_are_flagged() {
+        let n0 = CoefUnit::DegPerSqrtH.to_si(0.15);
+        let mut records: Vec<ChannelRecord> = (0..8)
+            .map(|i| channel(i, n0 * (1.0 + 0.01 * i as f64), &[]))
+            .collect();
+        let mut copy = channel(3, n0 * 1.03, &[]);
+        copy.key = "s03-copy".into();
+        copy.rel = "b/s03.arrow".into();
+        records.push(copy);
+        let mut near = channel(9, n0 * 1.05, &[]);
+        near.terms[Term::RandomWalk.index()].hi =
+            Some(f64::from_bits((n0 * 1.05 * 1.03).to_bits() + 1));
+        records.push(near);
+        for i in [10, 11] {
+            records.push(ChannelRecord::error(
+                &Input {
+                    path: "f/bad.arrow".into(),
+                    rel: "bad.arrow".into(),
+                    sensor: "bad".into(),
+                    key: format!("bad-{i}"),
+                    hash: 0,
+                },
+                "file is empty".into(),
+            ));
+        }
+        let fleet = assess(records, &Spec::default());
+        let flagged: Vec<(&str, &str)> = fleet
+            .rows
+            .iter()
+            .filter(|r| r.reasons.iter().any(|w| w.starts_with("same data as")))
+            .map(|r| (r.record.key.as_str(), r.reasons[0].as_str()))
+            .collect();
+        assert_eq!(flagged.len(), 2, "{flagged:?}");
+        assert!(flagged
+            .iter()
+            .any(|(k, w)| *k == "s03-0" && w.contains("b/s03.arrow")));
+        assert!(flagged
+            .iter()
+            .any(|(k, w)| *k == "s03-copy" && w.contains("as s03.arrow")));
     }
 
     /// Channels the quality screen doubts (a frozen run, gravity in another unit) are flagged
