@@ -8,6 +8,7 @@ use crate::effects::shapes::{GaussMarkov1, Resonance};
 use crate::effects::Effect;
 use crate::estimate::ChannelPsd;
 use crate::model::{EffectShape, NoiseFit};
+use crate::psd::Psd;
 
 use crate::units::Unit;
 
@@ -30,10 +31,13 @@ fn amount(v: f64, unit: Option<Unit>) -> String {
 }
 
 /// A fitted IEEE coefficient for a legend, in its datasheet unit: `N = 0.1502 °/√h`.
-fn coefficient(a: &ChannelAnalysis, term: crate::model::Term, value: f64) -> String {
+/// A term's legend entry: the value of the figure's own fit (`fit`: "Allan fit", "spectrum
+/// fit"), which may differ from the combined value summary.md gives first (a B the spectrum fit
+/// kept and the combination ruled out was drawn as "B = 51 µg" beside a summary's "≤ 4.8 µg").
+fn coefficient(a: &ChannelAnalysis, term: crate::model::Term, value: f64, fit: &str) -> String {
     let [_, u, _] = units_of(a.sensor, term);
     format!(
-        "{} = {} {}",
+        "{} = {} {} ({fit})",
         term.symbol(),
         sig4(u.from_si(value)),
         u.pretty()
@@ -171,7 +175,7 @@ pub fn avar_figure(a: &ChannelAnalysis, original: &Deviations, unit: Option<Unit
     if let Some(fit) = fit {
         for (k, e) in fit.estimates.iter().enumerate() {
             main.series.push(Series::line(
-                &coefficient(a, e.term, e.value),
+                &coefficient(a, e.term, e.value, "Allan fit"),
                 taus.clone(),
                 taus.iter()
                     .map(|&t| e.value * e.term.avar_unit(t).sqrt())
@@ -223,26 +227,45 @@ pub fn avar_figure(a: &ChannelAnalysis, original: &Deviations, unit: Option<Unit
 /// `unit`: the SI unit of the channel's values (`None`: a channel without one, shown as "raw").
 pub fn psd_figure(a: &ChannelAnalysis, original: &ChannelPsd, unit: Option<Unit>) -> Figure {
     let label = unit.map_or("raw", Unit::pretty);
-    let psd = a
+    let corrected = a
         .residual_loop
         .as_ref()
         .and_then(|l| l.corrected.as_ref())
-        .map_or(&original.psd, |c| &c.1);
+        .map(|c| &c.1);
+    let psd = corrected.unwrap_or(&original.psd);
     let fs = psd.rate_hz;
     let mut main = Panel::loglog("f (Hz)", &format!("PSD, one-sided (({label})²/Hz)"));
     main.legend_at = Corner::Auto;
-    let (x, y): (Vec<f64>, Vec<f64>) = psd
-        .freq_hz
-        .iter()
-        .zip(&psd.value)
-        .skip(1)
-        .map(|(f, v)| (*f, *v))
-        .unzip();
+    let trace = |p: &Psd| -> (Vec<f64>, Vec<f64>) {
+        p.freq_hz
+            .iter()
+            .zip(&p.value)
+            .skip(1)
+            .map(|(f, v)| (*f, *v))
+            .unzip()
+    };
+    // The recorded spectrum is always drawn: where the loop corrected the series, the corrected
+    // one alone had the lines it removed (the largest thing in a vibration record) missing from
+    // a trace labelled as the measurement.
+    if corrected.is_some() {
+        let (x, y) = trace(&original.psd);
+        main.series.push(Series::line(
+            "Welch, recorded",
+            x,
+            y,
+            Style::line(Color(215, 215, 215)).with_width(1.0),
+        ));
+    }
+    let (x, y) = trace(psd);
     main.series.push(Series::line(
-        "Welch",
+        if corrected.is_some() {
+            "Welch, the loop's lines and slow effects taken out"
+        } else {
+            "Welch"
+        },
         x,
         y,
-        Style::line(Color(170, 170, 170)).with_width(1.0),
+        Style::line(Color(150, 150, 150)).with_width(1.0),
     ));
     let fit = a.spectrum_fit();
     if let Some(fit) = fit {
@@ -258,7 +281,7 @@ pub fn psd_figure(a: &ChannelAnalysis, original: &ChannelPsd, unit: Option<Unit>
         let freqs = log_grid(f_lo, fs / 2.0, 300);
         for (k, e) in fit.estimates.iter().enumerate() {
             main.series.push(Series::line(
-                &coefficient(a, e.term, e.value),
+                &coefficient(a, e.term, e.value, "spectrum fit"),
                 freqs.clone(),
                 freqs
                     .iter()

@@ -604,15 +604,28 @@ fn analyze_labels_every_coefficient_amplitude_and_legend_with_its_unit() {
             .filter(|t| t.len() > 4 && t.as_bytes()[1..4] == *b" = " && "QNBKR".contains(&t[..1]))
             .collect();
         assert!(!terms.is_empty(), "{name}: {texts:?}");
+        let domain = if name.contains("avar") {
+            "(Allan fit)"
+        } else {
+            "(spectrum fit)"
+        };
         for t in terms {
-            // "N = 0.1504 °/√h": a symbol, a number, a unit.
+            // "N = 0.1504 °/√h (spectrum fit)": a symbol, a number, a unit, the fit drawn.
             let parts: Vec<&str> = t.splitn(4, ' ').collect();
             assert!(
                 parts.len() == 4 && parts[2].parse::<f64>().is_ok() && !parts[3].is_empty(),
                 "{name}: {t}"
             );
+            assert!(t.ends_with(domain), "{name}: {t}");
         }
     }
+    // The line was removed: the recorded spectrum is drawn beside the corrected one.
+    let psd = legends("accel_x_psd.svg");
+    assert!(psd.iter().any(|t| t == "Welch, recorded"), "{psd:?}");
+    assert!(
+        psd.iter().any(|t| t.starts_with("Welch, the loop")),
+        "{psd:?}"
+    );
     assert!(
         legends("accel_x_psd.svg")
             .iter()
