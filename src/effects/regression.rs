@@ -43,6 +43,9 @@ const MAX_ALIASES: usize = 256;
 const GOOD_RELIABILITY: f64 = 0.9;
 /// Floor of the attenuation correction.
 const MIN_RELIABILITY: f64 = 0.25;
+/// Reliability below which a regressor is mostly its own measurement noise at every block length
+/// tried: no coefficient is measured on it (see [`crate::effects::slow::coupling_under_model`]).
+pub const USEFUL_RELIABILITY: f64 = 0.5;
 
 /// A regression of a series on a regressor, with the blocking it used.
 #[derive(Debug, Clone, Copy, PartialEq)]
