@@ -191,14 +191,33 @@ pub fn without_ramp(opts: &FitOptions) -> FitOptions {
 }
 
 /// Widens R's interval in `fit` to cover the series' interval at the fit's confidence.
+///
+/// Where the fit barely determines R beside K (its interval more than [`FIT_WIDER`] times the
+/// series'), or its value lies outside the series' interval, the series' estimate |R̂| and its
+/// interval are R's: the series measures the ramp directly. A clean 1-h record whose loop added a
+/// ramp (series: −13.5 ± 1.2 °/h²) had the Allan fit's R printed as 5.849 [5.849, 2.2·10⁷]
+/// °/h² beside it.
 pub fn widen_ramp(fit: &mut NoiseFit, test: &RampTest) {
     let z = crate::stats::norm_isf((1.0 - fit.confidence) / 2.0);
-    let (lo, hi) = (test.ramp.abs() - z * test.se, test.ramp.abs() + z * test.se);
+    let r = test.ramp.abs();
+    let (lo, hi) = ((r - z * test.se).max(0.0), r + z * test.se);
     if let Some(e) = fit.estimates.iter_mut().find(|e| e.term == Term::RateRamp) {
-        e.lo = e.lo.min(lo.max(0.0));
+        let undetermined = e.hi - e.lo > FIT_WIDER * (hi - lo);
+        if undetermined {
+            (e.value, e.lo, e.hi) = (r, lo, hi);
+            return;
+        }
+        if !(lo..=hi).contains(&e.value) {
+            e.value = r;
+        }
+        e.lo = e.lo.min(lo);
         e.hi = e.hi.max(hi);
     }
 }
+
+/// How much wider than the series' interval the fit's interval of R may be before the fit is
+/// taken not to determine R (see [`widen_ramp`]).
+pub const FIT_WIDER: f64 = 10.0;
 
 #[cfg(test)]
 pub(crate) mod tests {
@@ -239,6 +258,55 @@ pub(crate) mod tests {
 
     fn no_ramp_fit(y: &[f64]) -> NoiseFit {
         fit_avar(&octave_oadev(y), &without_ramp(&FitOptions::default())).unwrap()
+    }
+
+    /// The series' ramp replaces a fit's R that it rules out or that the fit barely determines,
+    /// and widens one the fit determines.
+    #[test]
+    fn the_series_ramp_stands_where_the_fit_does_not_determine_r() {
+        let y = series(5, 400.0);
+        let mut opts = FitOptions::default();
+        opts.required.push(Term::RateRamp);
+        let fit = fit_avar(&octave_oadev(&y), &opts).unwrap();
+        let r_of = |f: &NoiseFit| {
+            let e = f.get(Term::RateRamp).unwrap();
+            (e.value, e.lo, e.hi)
+        };
+        let (v, lo, hi) = r_of(&fit);
+        let test = |ramp: f64, se: f64| RampTest {
+            ramp,
+            se,
+            t: ramp / se,
+            dof: 500.0,
+            p: 1e-9,
+        };
+        // Barely determined by the fit: the series' interval alone.
+        let precise = test(-2.0 * v, (hi - lo) / 100.0);
+        let mut f = fit.clone();
+        widen_ramp(&mut f, &precise);
+        let (v2, lo2, hi2) = r_of(&f);
+        assert_eq!(v2, 2.0 * v);
+        assert!(
+            (hi2 - lo2 - 2.0 * precise.se).abs() < 1e-9 * hi2,
+            "{lo2} {hi2}"
+        );
+        // Determined alike: the hull, the fit's value kept where the series allows it.
+        let alike = test(v * 1.01, (hi - lo) / 2.0);
+        let mut f = fit.clone();
+        widen_ramp(&mut f, &alike);
+        let (v3, lo3, hi3) = r_of(&f);
+        assert_eq!(v3, v);
+        assert!(
+            lo3 <= lo && hi3 >= hi && lo3 <= v * 1.01 - alike.se,
+            "{lo3} {hi3}"
+        );
+        // Ruled out by a series as wide as the fit: the series' value, the hull.
+        let elsewhere = test(3.0 * v, (hi - lo) / 4.0);
+        let mut f = fit.clone();
+        widen_ramp(&mut f, &elsewhere);
+        let (v4, lo4, hi4) = r_of(&f);
+        assert_eq!(v4, 3.0 * v);
+        assert!(lo4 <= lo && hi4 >= 3.0 * v + elsewhere.se, "{lo4} {hi4}");
     }
 
     /// Under N, B and K alone the test's t is Student: over 40 records |t| stays below 3.3
