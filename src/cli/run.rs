@@ -268,11 +268,9 @@ pub fn run(job: &Job) -> i32 {
                     }
                     let Some(l) = &a.residual_loop else { continue };
                     let units = EffectUnits::of(&r.recording, &a.channel);
-                    let found: Vec<String> = l
-                        .steps
-                        .iter()
-                        .map(|s| report::effect_line(&s.effect, &units))
-                        .collect();
+                    let effects: Vec<&imunoise::effects::Effect> =
+                        l.steps.iter().map(|s| &s.effect).collect();
+                    let found = report::effect_lines(&effects, &units);
                     if !job.output.quiet {
                         bar.line(&format!(
                             "found {}: {}",

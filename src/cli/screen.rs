@@ -53,9 +53,9 @@ pub struct ScreenArgs {
 #[command(next_help_heading = "Fleet")]
 pub struct FleetFlags {
     /// More inputs, one path per line (folders or files; `-` reads standard input; blank lines
-    /// and lines starting with # are skipped).
+    /// and lines starting with # are skipped). Repeatable: a list and standard input together.
     #[arg(long, value_name = "LIST")]
-    pub files_from: Option<PathBuf>,
+    pub files_from: Vec<PathBuf>,
 
     /// Take only shard K of N (0 <= K < N), chosen by a stable hash of each input's path below
     /// its folder argument: the same on every machine, so a job array (Slurm
@@ -202,7 +202,10 @@ fn job(a: ScreenArgs) -> Result<ScreenJob, UsageError> {
         None => Spec::default(),
     };
     let mut args = input.files.clone();
-    if let Some(list) = &f.files_from {
+    if f.files_from.iter().filter(|l| l.as_os_str() == "-").count() > 1 {
+        return Err(usage("--files-from -: standard input can be read once"));
+    }
+    for list in &f.files_from {
         args.extend(
             fleet::inputs::read_list(list).map_err(|e| usage(format!("--files-from {e}")))?,
         );

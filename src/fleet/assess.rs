@@ -231,7 +231,7 @@ pub fn assess(mut records: Vec<ChannelRecord>, spec: &Spec) -> Fleet {
         }
     }
     let copies = same_data(&records);
-    let rows = records
+    let mut rows: Vec<FleetRow> = records
         .into_iter()
         .map(|record| {
             let mut terms = [TermAssessment::default(); 5];
@@ -281,11 +281,13 @@ pub fn assess(mut records: Vec<ChannelRecord>, spec: &Spec) -> Fleet {
                         a.median = Some(s.median.exp());
                         a.outlier = z.abs() > opts.outlier_z;
                         if a.outlier {
+                            let ratio = v / s.median.exp();
+                            let hint = unit_hint(ratio).map_or(String::new(), |h| format!("; {h}"));
                             reasons.push(format!(
-                                "{} outlier: {} is {:.2}× the fleet median {} (robust z = {:+.1})",
+                                "{} outlier: {} is {:.2}× the fleet median {} (robust z = {:+.1}){hint}",
                                 term.symbol(),
                                 show(spec, sensor, term, v),
-                                v / s.median.exp(),
+                                ratio,
                                 show(spec, sensor, term, s.median.exp()),
                                 z
                             ));
@@ -347,11 +349,101 @@ pub fn assess(mut records: Vec<ChannelRecord>, spec: &Spec) -> Fleet {
             }
         })
         .collect();
+    file_wide_shifts(&mut rows, spec);
     Fleet {
         rows,
         stats,
         spec: spec.clone(),
     }
+}
+
+/// Least channels of one input with a z for a term before their combined z is taken.
+const FILE_WIDE_MIN_CHANNELS: usize = 3;
+
+/// Every channel of one input shifted alike against the fleet: the z of a term over the input's
+/// channels that are not outliers on it by themselves, combined (Stouffer, Σz/√k), beyond the
+/// outlier threshold. A 200-Hz recording stamped as 100 Hz reads every axis's N √2 high; among
+/// siblings spread 12 % its six axes scored z 0.55–3.65 and one was called an outlier, with
+/// nothing said of the file. Those channels get the reason and are flagged.
+fn file_wide_shifts(rows: &mut [FleetRow], spec: &Spec) {
+    let threshold = spec.fleet.outlier_z;
+    let mut by_input: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+    for (i, r) in rows.iter().enumerate() {
+        if r.record.status == Status::Ok {
+            by_input.entry(r.record.key.clone()).or_default().push(i);
+        }
+    }
+    for members in by_input.values() {
+        for term in Term::ALL {
+            // The channels that are not outliers on the term by themselves: one axis far out
+            // (a high-ARW gyro, a mislabelled unit) is that axis's finding, not the file's.
+            let scored: Vec<(usize, f64, f64)> = members
+                .iter()
+                .filter(|&&i| !rows[i].terms[term.index()].outlier)
+                .filter_map(|&i| {
+                    let a = &rows[i].terms[term.index()];
+                    let value = rows[i].record.term(term).value?;
+                    Some((i, a.z?, value / a.median?))
+                })
+                .collect();
+            if scored.len() < FILE_WIDE_MIN_CHANNELS {
+                continue;
+            }
+            let combined =
+                scored.iter().map(|(_, z, _)| z).sum::<f64>() / (scored.len() as f64).sqrt();
+            if combined.abs() <= threshold {
+                continue;
+            }
+            let (lo, hi) = scored
+                .iter()
+                .fold((f64::INFINITY, 0.0f64), |(lo, hi), &(_, _, r)| {
+                    (lo.min(r), hi.max(r))
+                });
+            let reason = format!(
+                "{} {} across the file's {} channels: combined z = {combined:+.1} (each {lo:.2}–{hi:.2}× \
+                 its fleet median); every axis shifted alike points at the whole file or unit: a \
+                 sample rate or scale wrong for all of it, or a unit worse on every axis",
+                term.symbol(),
+                if combined > 0.0 { "high" } else { "low" },
+                scored.len()
+            );
+            for (i, _, _) in &scored {
+                rows[*i].reasons.push(reason.clone());
+                rows[*i].flagged = true;
+            }
+        }
+    }
+}
+
+/// Factors by which a unit mislabel moves every coefficient of a channel, with what they are.
+const UNIT_FACTORS: [(f64, &str); 4] = [
+    (
+        180.0 / std::f64::consts::PI,
+        "a degree per radian (deg/s read as rad/s?)",
+    ),
+    (9.80665, "m/s² per g (g read as m/s²?)"),
+    (1000.0, "a thousand (milli- read as the unit?)"),
+    (3600.0, "seconds per hour (°/h read as °/s?)"),
+];
+
+/// The unit mislabel an outlier's ratio to the fleet median points at: the ratio (or its
+/// inverse) within 10 % of one of [`UNIT_FACTORS`].
+fn unit_hint(ratio: f64) -> Option<String> {
+    let (r, inverse) = if ratio >= 1.0 {
+        (ratio, false)
+    } else {
+        (1.0 / ratio, true)
+    };
+    UNIT_FACTORS
+        .iter()
+        .find(|(f, _)| (r / f - 1.0).abs() < 0.1)
+        .map(|(f, what)| {
+            format!(
+                "{}{} is {what}",
+                if inverse { "1/" } else { "" },
+                crate::report::sig4(*f)
+            )
+        })
 }
 
 /// The inputs whose analysed channels agree with another input's in every channel's name, sample
@@ -433,6 +525,50 @@ mod tests {
         r.effects_detail = effects.iter().map(|s| format!("{s} detail")).collect();
         r.effects_delta_bic = vec![-100.0; effects.len()];
         r
+    }
+
+    /// Three axes of one file each 1.15× their siblings (none an outlier alone): the file is
+    /// flagged on every axis with the combined z; the others are not.
+    #[test]
+    fn a_shift_shared_by_every_axis_of_a_file_is_flagged() {
+        let n0 = CoefUnit::DegPerSqrtH.to_si(0.15);
+        // Deterministic spread of about 5 % in ln N.
+        let spread = [
+            0.0, 0.8, -0.6, 1.2, -1.1, 0.3, -0.2, 0.9, -0.9, 0.5, -0.4, 1.5, -1.4, 0.1, -0.7,
+        ];
+        let mut records = Vec::new();
+        for (i, g) in spread.iter().enumerate() {
+            for axis in 0..3u32 {
+                let shift = if i == 0 { 1.15 } else { 1.0 };
+                let jitter = 0.05 * (g + 0.3 * (f64::from(axis) - 1.0));
+                let mut r = channel(i, n0 * shift * jitter.exp(), &[]);
+                r.channel = Some(format!("gyro_{axis}"));
+                r.channel_index = Some(axis);
+                records.push(r);
+            }
+        }
+        let fleet = assess(records, &Spec::default());
+        for row in &fleet.rows {
+            let wide = row
+                .reasons
+                .iter()
+                .find(|w| w.contains("across the file's 3 channels"));
+            if row.record.key == "s00-0" {
+                let w = wide.unwrap_or_else(|| panic!("{row:?}"));
+                assert!(w.starts_with("N high") && row.flagged, "{w}");
+                assert!(!row.terms[Term::RandomWalk.index()].outlier, "{row:?}");
+            } else {
+                assert!(wide.is_none() && !row.flagged, "{row:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn unit_factors_are_named() {
+        assert!(unit_hint(58.38).is_some_and(|h| h.contains("degree")));
+        assert!(unit_hint(1.0 / 9.7).is_some_and(|h| h.starts_with("1/9.807")));
+        assert!(unit_hint(1050.0).is_some_and(|h| h.contains("thousand")));
+        assert!(unit_hint(2.0).is_none() && unit_hint(0.5).is_none() && unit_hint(30.0).is_none());
     }
 
     /// A file copied under another name: both copies are flagged, each naming the other; a

@@ -9,7 +9,7 @@
 use crate::analysis::ChannelAnalysis;
 use crate::model::{FitWarning, Sensor, Term};
 use crate::pipeline::FileResult;
-use crate::report::{effect_line, EffectUnits};
+use crate::report::{effect_lines, EffectUnits};
 
 use super::Input;
 
@@ -212,9 +212,10 @@ fn fill_analysis(rec: &mut ChannelRecord, a: &ChannelAnalysis, units: &EffectUni
         }
     }
     if let Some(l) = &a.residual_loop {
-        for s in &l.steps {
+        let effects: Vec<&crate::effects::Effect> = l.steps.iter().map(|s| &s.effect).collect();
+        for (s, line) in l.steps.iter().zip(effect_lines(&effects, units)) {
             rec.effects.push(s.effect.kind().to_string());
-            rec.effects_detail.push(effect_line(&s.effect, units));
+            rec.effects_detail.push(line);
             rec.effects_delta_bic.push(s.delta_bic);
         }
     }

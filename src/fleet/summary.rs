@@ -49,6 +49,7 @@ pub fn markdown(s: &FleetStepSummary, title: &str) -> String {
         .filter(|r| r.flagged)
         .map(|r| r.record.sensor.as_str())
         .collect();
+    flagged_sensors.sort_unstable();
     flagged_sensors.dedup();
     let mut md = String::new();
     let _ = writeln!(md, "# Fleet screen\n\n{title}\n");
@@ -75,8 +76,19 @@ pub fn markdown(s: &FleetStepSummary, title: &str) -> String {
             cell(&flagged_sensors.join(", "))
         }
     );
-    let _ = writeln!(md, "| limit failures | {} |", verdicts(Verdict::Fail));
-    let _ = writeln!(md, "| undecided | {} |", verdicts(Verdict::Undecided));
+    // Verdicts are per term: a channel failing two limits counts twice here, once in the
+    // channels failing (the figure the exit line gives).
+    let _ = writeln!(
+        md,
+        "| limit failures (terms) | {} on {} channels |",
+        verdicts(Verdict::Fail),
+        count(&|r| r.fails_spec())
+    );
+    let _ = writeln!(
+        md,
+        "| undecided (terms) | {} |",
+        verdicts(Verdict::Undecided)
+    );
     let _ = writeln!(
         md,
         "| outliers | {} |",

@@ -31,7 +31,8 @@ pub use kalibr::imu_yaml;
 pub use model::{analysis_json, coefficients_table, units_of};
 pub use stale::{prune_figures, retire_stale_folders, EARLIER_RUNS};
 pub use summary::{
-    effect_line, ramp_sentence, ramp_sentences, summary_markdown, warning_line, EffectUnits,
+    effect_line, effect_lines, harmonic_notes, ramp_sentence, ramp_sentences, summary_markdown,
+    warning_line, EffectUnits,
 };
 pub use table::{Column, Table};
 

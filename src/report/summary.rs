@@ -457,6 +457,64 @@ fn hz_interval(v: f64, lo: f64, hi: f64) -> String {
     format!("{v:.decimals$} Hz [{lo:.decimals$}, {hi:.decimals$}]")
 }
 
+/// A line-like effect's centre and the spread within which a multiple of another's counts as
+/// its harmonic, Hz: a sinusoid's centre interval, a narrow band's or a resonance's width.
+fn tonal(e: &Effect) -> Option<(f64, f64)> {
+    match e {
+        Effect::Sinusoid(s) => Some((s.freq_hz, (s.freq_hi - s.freq_lo).abs())),
+        Effect::Narrowband(nb) => Some((nb.freq_hz, nb.width_hz)),
+        Effect::Resonance { f0_hz, q, .. } => Some((*f0_hz, f0_hz / q.max(1.0))),
+        _ => None,
+    }
+}
+
+/// Harmonics reach no higher than this multiple of their fundamental.
+const MAX_HARMONIC: f64 = 8.0;
+
+/// For each of `effects`, the note that it lies at a whole multiple n ≥ 2 of a lower tonal
+/// effect of the same channel (a line, a narrow band or a resonance): within half the narrower
+/// of its spread and n times the lower one's, and at least 0.5 % of the frequency (a broad
+/// resonance near a high multiple of a line is not called its harmonic on its breadth alone). A fan's
+/// second and third harmonics were listed as two more lines and one as a "resonance at 150 Hz",
+/// with nothing tying them to the 50-Hz fundamental; a structural resonance does not sit at a
+/// whole multiple of a line by chance often, and the note says "harmonic?" not more.
+pub fn harmonic_notes(effects: &[&Effect]) -> Vec<Option<String>> {
+    let tones: Vec<Option<(f64, f64)>> = effects.iter().map(|e| tonal(e)).collect();
+    tones
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let (f, w) = (*t)?;
+            tones
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .filter_map(|(_, o)| *o)
+                .filter(|&(f0, _)| f0 > 0.0 && f > 1.5 * f0 && f <= MAX_HARMONIC * f0)
+                .find_map(|(f0, w0)| {
+                    let n = (f / f0).round();
+                    let tolerance = (0.5 * w.min(n * w0)).max(0.005 * f);
+                    ((f - n * f0).abs() <= tolerance).then(|| {
+                        format!(
+                            " ({}× the one at {} Hz: a harmonic?)",
+                            n as u32,
+                            super::format::sig4(f0)
+                        )
+                    })
+                })
+        })
+        .collect()
+}
+
+/// [`effect_line`] of each of a channel's effects, with [`harmonic_notes`].
+pub fn effect_lines(effects: &[&Effect], units: &EffectUnits) -> Vec<String> {
+    effects
+        .iter()
+        .zip(harmonic_notes(effects))
+        .map(|(e, note)| effect_line(e, units) + note.as_deref().unwrap_or(""))
+        .collect()
+}
+
 /// One line per effect found: what, its parameters with their units, the evidence.
 pub fn effect_line(e: &Effect, units: &EffectUnits) -> String {
     let v = Shown::value(units.value);
@@ -833,12 +891,14 @@ fn loop_section(out: &mut String, recording: &Recording, analysis: &[ChannelAnal
             continue;
         }
         let _ = writeln!(out, "- **{}**:{rival}{ramp}", a.channel);
-        for (i, s) in l.steps.iter().enumerate() {
+        let effects: Vec<&Effect> = l.steps.iter().map(|s| &s.effect).collect();
+        let lines = effect_lines(&effects, &units);
+        for (i, (s, line)) in l.steps.iter().zip(&lines).enumerate() {
             let _ = writeln!(
                 out,
                 "  {}. {} — ΔBIC {:.1}. Evidence: {}. Before: {}. After: {}.",
                 i + 1,
-                effect_line(&s.effect, &units),
+                line,
                 s.delta_bic,
                 s.evidence,
                 errors(&s.before),
@@ -874,6 +934,54 @@ mod tests {
             hz_interval(5.0, 5.0 - 1e-12, 5.0 + 1e-12),
             "5.000000000 Hz [5.000000000, 5.000000000]"
         );
+    }
+
+    fn resonance(f0_hz: f64, q: f64) -> Effect {
+        Effect::Resonance {
+            f0_hz,
+            f0_lo: f0_hz * 0.999,
+            f0_hi: f0_hz * 1.001,
+            q,
+            q_lo: q * 0.9,
+            q_hi: q * 1.1,
+            sigma: crate::model::EffectEstimate {
+                value: 1e-3,
+                lo: 9e-4,
+                hi: 1.1e-3,
+                edf: 50.0,
+            },
+        }
+    }
+
+    /// A 49.3-Hz fan line with its harmonics, one of them read as a resonance, beside a
+    /// structural resonance at 520 Hz: the harmonics say so, the structure does not.
+    #[test]
+    fn harmonics_name_their_fundamental() {
+        let effects = [
+            resonance(98.9, 30.0),
+            resonance(49.3, 20.0),
+            resonance(150.4, 26.0),
+            resonance(520.0, 20.0),
+            resonance(71.0, 20.0),
+        ];
+        let refs: Vec<&Effect> = effects.iter().collect();
+        let notes = harmonic_notes(&refs);
+        assert_eq!(
+            notes[0].as_deref(),
+            Some(" (2× the one at 49.30 Hz: a harmonic?)")
+        );
+        assert_eq!(notes[1], None);
+        assert_eq!(
+            notes[2].as_deref(),
+            Some(" (3× the one at 49.30 Hz: a harmonic?)")
+        );
+        assert_eq!(
+            notes[3], None,
+            "520 Hz is not the 10th or 7th multiple within its width"
+        );
+        assert_eq!(notes[4], None);
+        let lines = effect_lines(&refs, &units(Unit::RadPerS));
+        assert!(lines[2].ends_with("a harmonic?)") && lines[2].starts_with("resonance at"));
     }
 
     #[test]

@@ -406,7 +406,7 @@ fn shards_give_the_single_runs_table_and_reruns_recompute_only_what_changed() {
 }
 
 /// A corrupt, an empty and a mislabelled file among five good ones, and a listed file that no
-/// longer exists (given through --files-from): each is a row with its error, the good ones are written, the exit code is 1; the rerun skips
+/// longer exists (given through a second --files-from): each is a row with its error, the good ones are written, the exit code is 1; the rerun skips
 /// the error results too and still exits 1.
 #[test]
 fn bad_files_are_error_rows_and_do_not_stop_the_batch() {
@@ -419,15 +419,15 @@ fn bad_files_are_error_rows_and_do_not_stop_the_batch() {
     std::fs::write(fleet.join("corrupt.arrow"), b"ARROW1\0\0 not really").unwrap();
     std::fs::write(fleet.join("empty.csv"), b"").unwrap();
     std::fs::write(fleet.join("mislabelled.parquet"), b"time,gyro_x\n0,1\n").unwrap();
-    std::fs::write(
-        tmp.path().join("list.txt"),
-        "# the fleet\nfleet\nfleet/gone.arrow\n",
-    )
-    .unwrap();
+    std::fs::write(tmp.path().join("list.txt"), "# the fleet\nfleet\n").unwrap();
+    std::fs::write(tmp.path().join("more.txt"), "fleet/gone.arrow\n").unwrap();
+    // Two lists (--files-from repeats).
     let args = [
         "screen",
         "--files-from",
         "list.txt",
+        "--files-from",
+        "more.txt",
         "-o",
         "out",
         "--backend",
