@@ -12,6 +12,10 @@ pub(super) const REFINE_P: f64 = 0.05;
 /// and iterated whatever the test under the fitted noise model says (see [`slow_candidates`]).
 pub(super) const FREE_REFINE_P: f64 = 0.05;
 
+/// p-value of the model-free coupling test below which the refinement weighs the coupling
+/// against the refit's kept terms alone ([`NoiseK::Kept`]).
+pub(super) const KEPT_P: f64 = 0.01;
+
 /// The Allan fit of the current series after `correct`: the noise model with a slow effect taken
 /// out. The corrected copy is a pooled buffer in which the Allan deviation builds its prefix sums
 /// ([`compute_owned`]): one record-length buffer a refit, not two.
@@ -157,7 +161,7 @@ pub(super) fn slow_candidates<'a>(
                 Refinement {
                     remove: &|v, c| remove_coupling(v, a.samples, c),
                     iterate: suspected.then_some(&p_of as &dyn Fn(&Coupling) -> f64),
-                    k: if suspected {
+                    k: if free_p < KEPT_P {
                         NoiseK::Kept
                     } else {
                         NoiseK::Fitted
