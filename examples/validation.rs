@@ -810,6 +810,7 @@ fn main() {
                     FitWarning::OutputResolution { .. } => "output resolution".to_string(),
                     FitWarning::HeavyTail { .. } => "heavy tail".to_string(),
                     FitWarning::CouplingOrWarmUp { .. } => "coupling or warm-up".to_string(),
+                    FitWarning::KOrCoupling { .. } => "K or coupling".to_string(),
                     FitWarning::NotStatic { .. } => "not static".to_string(),
                     FitWarning::LinesAcrossJoins { .. } => "lines across joins".to_string(),
                 });

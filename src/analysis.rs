@@ -208,7 +208,11 @@ fn fit_and_close(
         close_loop_from_base(input.samples, input.rate_hz, aux, &cfg, initial, base)
     {
         let report = &outcome.report;
-        if !report.steps.is_empty() || report.rival.is_some() || report.ramp.is_some() {
+        if !report.steps.is_empty()
+            || report.rival.is_some()
+            || report.ramp.is_some()
+            || report.k_or_coupling.is_some()
+        {
             for (fit, out) in [
                 (&mut a.allan, outcome.allan),
                 (&mut a.spectrum, outcome.spectrum),

@@ -173,6 +173,16 @@ pub enum FitWarning {
         drift_delta_bic: f64,
         coupling_delta_bic: f64,
     },
+    /// K that the final Allan fit determines would go with a coupling to `aux` taken out
+    /// (`coefficient` SI, family-wise `p_value` under the final model, short of the evidence an
+    /// effect needs): the rise K stands for may be that channel's warm-up, and K's interval
+    /// reaches down to 0 (`k`: K as read, SI).
+    KOrCoupling {
+        aux: String,
+        coefficient: f64,
+        p_value: f64,
+        k: f64,
+    },
     /// The `spikes` samples the loop removed are the far end of a tail continuous with the noise
     /// (`shoulder` samples in the band one σ below the threshold where Gaussian noise puts
     /// `shoulder_gaussian`): heavy-tailed noise rather than glitches, or glitches whose amplitudes
@@ -280,6 +290,17 @@ impl FitWarning {
                  where {aux} only warms up, with no wander the series follows, the bias's own \
                  warm-up and one {aux} drives are not told apart, and the coefficient holds only \
                  if the drift is {aux}'s"
+            ),
+            FitWarning::KOrCoupling {
+                aux,
+                coefficient,
+                p_value,
+                ..
+            } => format!(
+                "K may stand for {aux}'s warm-up: with a coupling of {coefficient:.3e} (SI) to \
+                 {aux} taken out (p = {p_value:.1e}, short of the evidence an effect needs) the \
+                 Allan fit keeps no random walk; the record does not tell the two apart, and K's \
+                 interval reaches down to 0"
             ),
             FitWarning::LinesAcrossJoins { joins } => format!(
                 "a line or narrow band was found in a record joined over {joins} place{} (gaps \

@@ -710,7 +710,9 @@ pub fn warning_line(w: &FitWarning, sensor: Sensor) -> String {
                  worst at {range}; intervals widened ×{inflation:.2}"
             )
         }
-        FitWarning::CouplingOrWarmUp { .. } | FitWarning::LinesAcrossJoins { .. } => w.describe(),
+        FitWarning::CouplingOrWarmUp { .. }
+        | FitWarning::LinesAcrossJoins { .. }
+        | FitWarning::KOrCoupling { .. } => w.describe(),
         FitWarning::NotStatic {
             sensor: moving,
             largest_jump,

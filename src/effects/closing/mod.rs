@@ -327,6 +327,10 @@ pub struct LoopReport {
     /// dropped (the loop's corrections took the slope out) or added (the Allan fit had put K in
     /// its place).
     pub ramp: Option<RampDecision>,
+    /// A K the final Allan fit determines that a coupling it did not admit would take away
+    /// (see [`KOrCoupling`]); K's interval then reaches down to 0.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub k_or_coupling: Option<KOrCoupling>,
     /// The fits of the base model before any effect (those after are the channel's fits).
     #[serde(skip)]
     pub base_allan: Option<NoiseFit>,
@@ -354,6 +358,15 @@ impl LoopReport {
             weight: r.weight,
             evidence: r.evidence.clone(),
         });
+        let k_or_coupling = self
+            .k_or_coupling
+            .as_ref()
+            .map(|c| FitWarning::KOrCoupling {
+                aux: c.aux.clone(),
+                coefficient: c.coefficient,
+                p_value: c.p_value,
+                k: c.k,
+            });
         let warm_up = self.steps.iter().filter_map(|s| match &s.effect {
             Effect::Coupling { aux, fit } => {
                 fit.explains_drift
@@ -366,7 +379,12 @@ impl LoopReport {
             }
             _ => None,
         });
-        limit.into_iter().chain(rival).chain(warm_up).collect()
+        limit
+            .into_iter()
+            .chain(rival)
+            .chain(warm_up)
+            .chain(k_or_coupling)
+            .collect()
     }
 
     /// The [`FitWarning::HeavyTail`] of a loop that removed spikes ending a tail continuous with
@@ -632,6 +650,101 @@ impl Candidate<'_> {
     }
 }
 
+/// A rate random walk the final Allan fit determines (its interval above 0) that a coupling to
+/// an aux channel, not admitted, would take away: with the coupling at its estimate under the
+/// final model taken out of the series, the Allan fit keeps no K, or one whose interval reaches
+/// 0. The rise K stands for is then the aux channel's warm-up as well as it is a random walk, and
+/// the record does not tell which: K's interval in both fits is extended down to 0 and the
+/// warning [`FitWarning::KOrCoupling`] says why. On clean simulated 10-min records of coupled
+/// gyros (a 3-°C warm-up of Tc 300 s), a coupling short of the evidence an effect needs (both
+/// tests: p 0.01–0.6) left K "determined" at 18–56× the truth on 14 of 300 channels, every one
+/// of those intervals excluding the truth.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct KOrCoupling {
+    pub aux: String,
+    /// The coupling's coefficient under the final model (SI per the aux channel's unit).
+    pub coefficient: f64,
+    /// Its family-wise p-value under the final model.
+    pub p_value: f64,
+    /// K as the final Allan fit read it (SI).
+    pub k: f64,
+}
+
+/// See [`KOrCoupling`]. Not where the loop admitted a coupling (what is left of the warm-up
+/// then is the coupling's error, not its absence), nor for an estimate within one standard
+/// error of 0.
+fn k_standing_for_a_coupling(
+    state: &mut State,
+    fs: f64,
+    aux: &[AuxSeries<'_>],
+    cfg: &LoopConfig,
+    p: f64,
+    steps: &[LoopStep],
+) -> Option<KOrCoupling> {
+    if steps
+        .iter()
+        .any(|s| matches!(s.effect, Effect::Coupling { .. }))
+    {
+        return None;
+    }
+    let allan = state.allan.as_ref()?;
+    let k = allan.get(Term::RateRandomWalk)?;
+    if k.lo <= 0.0 || k.lo.is_nan() {
+        return None;
+    }
+    let k_value = k.value;
+    let found = coupling_taking_k(state, allan, fs, aux, cfg, p, k_value)?;
+    for f in [state.allan.as_mut(), state.spectrum.as_mut()]
+        .into_iter()
+        .flatten()
+    {
+        if let Some(e) = f
+            .estimates
+            .iter_mut()
+            .find(|e| e.term == Term::RateRandomWalk)
+        {
+            e.lo = 0.0;
+        }
+    }
+    Some(found)
+}
+
+/// The first aux channel whose coupling, estimated under `allan` (the final Allan fit, K
+/// `k_value`) at least one standard error from 0 and taken out of the series, leaves an Allan fit
+/// without a determined K.
+fn coupling_taking_k(
+    state: &State,
+    allan: &NoiseFit,
+    fs: f64,
+    aux: &[AuxSeries<'_>],
+    cfg: &LoopConfig,
+    p: f64,
+    k_value: f64,
+) -> Option<KOrCoupling> {
+    let density = noise_density(allan, state.stochastic.as_ref(), fs, NoiseK::Fitted);
+    let usable: Vec<&AuxSeries<'_>> = aux
+        .iter()
+        .filter(|a| a.samples.len() == state.y.len())
+        .collect();
+    let family = usable.len();
+    usable.iter().find_map(|a| {
+        let c = coupling_under_model(&state.y, a.samples, fs, &density, family, p)?;
+        if c.z.abs() < 1.0 {
+            return None;
+        }
+        let refit = slow_candidates::allan_without(state, fs, cfg, &|v: &mut Vec<f64>| {
+            remove_coupling(v, a.samples, &c)
+        })?;
+        let k_gone = refit.get(Term::RateRandomWalk).is_none_or(|e| e.lo <= 0.0);
+        k_gone.then(|| KOrCoupling {
+            aux: a.name.to_string(),
+            coefficient: c.coefficient,
+            p_value: c.p_value,
+            k: k_value,
+        })
+    })
+}
+
 /// A correction of the series.
 /// A correction of the series; it may borrow the aux channels' samples (a coupling's), not copy
 /// them: a copy per coupling candidate per round held 370 MB more than the model of `analyze`'s
@@ -877,6 +990,7 @@ fn run_loop(
             widen_ramp(f, test);
         }
     }
+    let k_or_coupling = k_standing_for_a_coupling(&mut state, fs, aux, cfg, p, &steps);
     let report = LoopReport {
         bandwidth,
         initial,
@@ -886,6 +1000,7 @@ fn run_loop(
         stationarity: split_record(&state.y, fs, 4, 0.99),
         rival,
         ramp: end_ramp,
+        k_or_coupling,
         base_allan,
         base_spectrum,
         corrected: state
