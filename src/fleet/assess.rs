@@ -350,6 +350,7 @@ pub fn assess(mut records: Vec<ChannelRecord>, spec: &Spec) -> Fleet {
         })
         .collect();
     file_wide_shifts(&mut rows, spec);
+    gravity_elsewhere(&mut rows, spec);
     Fleet {
         rows,
         stats,
@@ -412,6 +413,68 @@ fn file_wide_shifts(rows: &mut [FleetRow], spec: &Spec) {
                 rows[*i].flagged = true;
             }
         }
+    }
+}
+
+/// Share of standard gravity above which an accelerometer axis "holds gravity" (a tilt of 30°
+/// from it keeps 87 %, one of 60° 50 %).
+const GRAVITY_SHARE: f64 = 0.5;
+
+/// An accelerometer axis that holds gravity where most siblings of the same name do not, or the
+/// other way round: the axes of that input are swapped or its unit was mounted differently, and
+/// a verdict against siblings that sit otherwise compares different things (a unit whose x and
+/// z columns were swapped had gravity on accel_x at 9.72 m/s² beside 90 siblings at 0.0 and
+/// was flagged for nothing). Judged per channel name among at least `min_siblings` analysed
+/// siblings, on the majority's side by more than 2:1.
+fn gravity_elsewhere(rows: &mut [FleetRow], spec: &Spec) {
+    let g = crate::units::STANDARD_GRAVITY;
+    let holds = |m: f64| m.abs() > GRAVITY_SHARE * g;
+    let mut by_name: BTreeMap<String, (usize, usize)> = BTreeMap::new();
+    for r in rows.iter() {
+        let rec = &r.record;
+        if let (Status::Ok, Some(Sensor::Accel), Some(name), Some(m)) =
+            (rec.status, rec.kind, rec.channel.as_ref(), rec.mean)
+        {
+            let e = by_name.entry(name.clone()).or_default();
+            if holds(m) {
+                e.0 += 1;
+            } else {
+                e.1 += 1;
+            }
+        }
+    }
+    for r in rows.iter_mut() {
+        let rec = &r.record;
+        let (Status::Ok, Some(Sensor::Accel), Some(name), Some(m)) =
+            (rec.status, rec.kind, rec.channel.as_ref(), rec.mean)
+        else {
+            continue;
+        };
+        let Some(&(with, without)) = by_name.get(name) else {
+            continue;
+        };
+        if with + without < spec.fleet.min_siblings {
+            continue;
+        }
+        let reason = if holds(m) && without > 2 * with {
+            format!(
+                "gravity on {name} ({:.3} m/s²) where {without} of the {} {name} channels have \
+                 it on another axis: axes swapped, or the unit mounted differently",
+                m,
+                with + without
+            )
+        } else if !holds(m) && with > 2 * without {
+            format!(
+                "no gravity on {name} ({:.3} m/s²) where {with} of the {} {name} channels have \
+                 it: axes swapped, or the unit mounted differently",
+                m,
+                with + without
+            )
+        } else {
+            continue;
+        };
+        r.reasons.push(reason);
+        r.flagged = true;
     }
 }
 
@@ -569,6 +632,47 @@ mod tests {
         assert!(unit_hint(1.0 / 9.7).is_some_and(|h| h.starts_with("1/9.807")));
         assert!(unit_hint(1050.0).is_some_and(|h| h.contains("thousand")));
         assert!(unit_hint(2.0).is_none() && unit_hint(0.5).is_none() && unit_hint(30.0).is_none());
+    }
+
+    /// One unit of twelve with gravity on accel_x instead of accel_z: its two axes are flagged,
+    /// nothing else.
+    #[test]
+    fn gravity_on_another_axis_than_the_siblings_is_flagged() {
+        let g = crate::units::STANDARD_GRAVITY;
+        let n0 = CoefUnit::DegPerSqrtH.to_si(0.15);
+        let mut records = Vec::new();
+        for i in 0..12 {
+            for (axis, name) in ["accel_x", "accel_y", "accel_z"].iter().enumerate() {
+                let mut r = channel(i, n0, &[]);
+                r.kind = Some(Sensor::Accel);
+                r.channel = Some((*name).into());
+                r.channel_index = Some(axis as u32);
+                let on_z = if i == 7 { axis == 0 } else { axis == 2 };
+                r.mean = Some(if on_z {
+                    0.99 * g
+                } else {
+                    0.02 * (axis as f64 - 1.0)
+                });
+                records.push(r);
+            }
+        }
+        let fleet = assess(records, &Spec::default());
+        let flagged: Vec<(&str, &str)> = fleet
+            .rows
+            .iter()
+            .filter(|r| r.reasons.iter().any(|w| w.contains("mounted differently")))
+            .map(|r| {
+                (
+                    r.record.key.as_str(),
+                    r.record.channel.as_deref().unwrap_or(""),
+                )
+            })
+            .collect();
+        assert_eq!(
+            flagged,
+            [("s07-0", "accel_x"), ("s07-0", "accel_z")],
+            "{flagged:?}"
+        );
     }
 
     /// A file copied under another name: both copies are flagged, each naming the other; a

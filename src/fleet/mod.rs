@@ -70,7 +70,7 @@ pub use verdict::{judge, Basis, Verdict};
 
 /// Version of the part-file and fleet-table schemas; a part file of another version is
 /// recomputed, not read.
-pub const SCHEMA_VERSION: u32 = 2;
+pub const SCHEMA_VERSION: u32 = 3;
 
 /// Something that stops the screen as a whole (as opposed to one input's error, which becomes
 /// that input's row).

@@ -89,6 +89,8 @@ pub struct ChannelRecord {
     pub rate_hz: Option<f64>,
     pub duration_s: Option<f64>,
     pub samples: Option<u64>,
+    /// The channel's mean over the record (SI): for an accelerometer, its share of gravity.
+    pub mean: Option<f64>,
     /// The noise model was fitted (false for a channel the quality screen found unanalysable, or
     /// whose fits both failed).
     pub analysed: bool,
@@ -126,6 +128,7 @@ impl ChannelRecord {
             rate_hz: None,
             duration_s: None,
             samples: None,
+            mean: None,
             analysed: false,
             terms: [TermValues::default(); 5],
             confidence: None,
@@ -166,6 +169,7 @@ impl ChannelRecord {
                 rec.duration_s = Some(r.quality.duration_s);
                 rec.samples = Some(r.quality.samples_out);
                 if let Some(q) = quality {
+                    rec.mean = Some(q.summary.mean).filter(|m| m.is_finite());
                     for v in &q.verdicts {
                         rec.quality.push(verdict_name(v));
                         rec.quality_detail.push(v.describe());

@@ -8,7 +8,7 @@
 //!
 //! Columns (SI values; one row per channel): `sensor`, `path`, `rel`, `key`, `status`
 //! (`ok`/`error`), `error`, `channel_index`, `channel`, `kind` (`gyro`/`accel`), `rate_hz`,
-//! `duration_s`, `samples`, `analysed`, per term `q_`/`n_`/`b_`/`k_`/`r_` + `value`, `lo`, `hi`,
+//! `duration_s`, `samples`, `mean` (the channel's mean, SI), `analysed`, per term `q_`/`n_`/`b_`/`k_`/`r_` + `value`, `lo`, `hi`,
 //! `upper` (the upper limit where there is no value), `confidence` (two-sided probability of the
 //! intervals), `effects` (comma-joined kinds),
 //! `effects_detail` (list), `effects_delta_bic` (list: each effect's ΔBIC), `quality` (comma-joined verdicts), `quality_detail` (list),
@@ -101,6 +101,7 @@ struct Common {
     rate_hz: Float64Builder,
     duration_s: Float64Builder,
     samples: UInt64Builder,
+    mean: Float64Builder,
     analysed: BooleanBuilder,
     terms: Vec<[Float64Builder; 4]>,
     ambiguous: Vec<BooleanBuilder>,
@@ -135,6 +136,7 @@ impl Common {
             rate_hz: Float64Builder::new(),
             duration_s: Float64Builder::new(),
             samples: UInt64Builder::new(),
+            mean: Float64Builder::new(),
             analysed: BooleanBuilder::new(),
             terms: (0..5)
                 .map(|_| std::array::from_fn(|_| Float64Builder::new()))
@@ -163,6 +165,7 @@ impl Common {
         self.rate_hz.append_option(r.rate_hz);
         self.duration_s.append_option(r.duration_s);
         self.samples.append_option(r.samples);
+        self.mean.append_option(r.mean);
         self.analysed.append_value(r.analysed);
         for (b, t) in self.terms.iter_mut().zip(&r.terms) {
             b[0].append_option(t.value);
@@ -201,6 +204,7 @@ impl Common {
             s("rate_hz", Arc::new(self.rate_hz.finish())),
             s("duration_s", Arc::new(self.duration_s.finish())),
             s("samples", Arc::new(self.samples.finish())),
+            s("mean", Arc::new(self.mean.finish())),
             s("analysed", Arc::new(self.analysed.finish())),
         ];
         let terms = Term::ALL
@@ -400,6 +404,7 @@ fn records_from_batch(b: &RecordBatch, out: &mut Vec<ChannelRecord>) -> Result<(
     let rate = column::<Float64Array>(b, "rate_hz")?;
     let duration = column::<Float64Array>(b, "duration_s")?;
     let samples = column::<UInt64Array>(b, "samples")?;
+    let mean = column::<Float64Array>(b, "mean")?;
     let analysed = column::<BooleanArray>(b, "analysed")?;
     let mut terms: Vec<[&Float64Array; 4]> = Vec::new();
     let mut ambiguous: Vec<&BooleanArray> = Vec::new();
@@ -449,6 +454,7 @@ fn records_from_batch(b: &RecordBatch, out: &mut Vec<ChannelRecord>) -> Result<(
             rate_hz: f(rate, i),
             duration_s: f(duration, i),
             samples: opt(samples.is_valid(i), samples.value(i)),
+            mean: f(mean, i),
             analysed: analysed.is_valid(i) && analysed.value(i),
             terms: tv,
             confidence: f(confidence, i),

@@ -106,6 +106,10 @@ pub fn imu_yaml(
     let _ = writeln!(out, "#   *_random_walk   = K (rate/acceleration random walk): gyro rad/s^2/sqrt(Hz), accel m/s^3/sqrt(Hz)");
     let _ = writeln!(
         out,
+        "#   (the same units as rad/s/sqrt(s) and m/s^2/sqrt(s), which the per-axis comments write)"
+    );
+    let _ = writeln!(
+        out,
         "#   (Kalibr multiplies the density by sqrt(update_rate) and the random walk by"
     );
     let _ = writeln!(
