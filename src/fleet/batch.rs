@@ -367,7 +367,7 @@ fn process(
                 time.write_s = written.elapsed().as_secs_f64();
                 records
             }
-            Err(e) => vec![ChannelRecord::error(input, e.to_string())],
+            Err(e) => vec![ChannelRecord::error(input, e.to_string()).at(e.column(), e.row())],
         },
     };
     let status = if records.iter().any(|r| r.status == Status::Error) {

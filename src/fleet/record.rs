@@ -82,6 +82,10 @@ pub struct ChannelRecord {
     pub key: String,
     pub status: Status,
     pub error: Option<String>,
+    /// Where in the file the error is, when it names a place: the column and the 0-based data
+    /// row (a CSV header is not a row), as report.json's `error` gives them.
+    pub error_column: Option<String>,
+    pub error_row: Option<u64>,
     /// Position among the file's channels (all of them, not only the inertial ones).
     pub channel_index: Option<u32>,
     pub channel: Option<String>,
@@ -122,6 +126,8 @@ impl ChannelRecord {
             key: input.key.clone(),
             status: Status::Error,
             error: Some(message),
+            error_column: None,
+            error_row: None,
             channel_index: None,
             channel: None,
             kind: None,
@@ -139,6 +145,13 @@ impl ChannelRecord {
             quality_detail: Vec::new(),
             warnings: Vec::new(),
         }
+    }
+
+    /// This error row with the place in the file its error names.
+    pub fn at(mut self, column: Option<&str>, row: Option<u64>) -> Self {
+        self.error_column = column.map(str::to_owned);
+        self.error_row = row;
+        self
     }
 
     /// The values of `term`.

@@ -7,7 +7,8 @@
 //! sees a whole file or none.
 //!
 //! Columns (SI values; one row per channel): `sensor`, `path`, `rel`, `key`, `status`
-//! (`ok`/`error`), `error`, `channel_index`, `channel`, `kind` (`gyro`/`accel`), `rate_hz`,
+//! (`ok`/`error`), `error`, `error_column`, `error_row` (where the error names a place),
+//! `channel_index`, `channel`, `kind` (`gyro`/`accel`), `rate_hz`,
 //! `duration_s`, `samples`, `mean` (the channel's mean, SI), `analysed`, per term `q_`/`n_`/`b_`/`k_`/`r_` + `value`, `lo`, `hi`,
 //! `upper` (the upper limit where there is no value), `confidence` (two-sided probability of the
 //! intervals), `effects` (comma-joined kinds),
@@ -95,6 +96,8 @@ struct Common {
     key: StringBuilder,
     status: StringBuilder,
     error: StringBuilder,
+    error_column: StringBuilder,
+    error_row: UInt64Builder,
     channel_index: UInt32Builder,
     channel: StringBuilder,
     kind: StringBuilder,
@@ -130,6 +133,8 @@ impl Common {
             key: StringBuilder::new(),
             status: StringBuilder::new(),
             error: StringBuilder::new(),
+            error_column: StringBuilder::new(),
+            error_row: UInt64Builder::new(),
             channel_index: UInt32Builder::new(),
             channel: StringBuilder::new(),
             kind: StringBuilder::new(),
@@ -159,6 +164,8 @@ impl Common {
         self.key.append_value(&r.key);
         self.status.append_value(r.status.as_str());
         self.error.append_option(r.error.as_deref());
+        self.error_column.append_option(r.error_column.as_deref());
+        self.error_row.append_option(r.error_row);
         self.channel_index.append_option(r.channel_index);
         self.channel.append_option(r.channel.as_deref());
         self.kind.append_option(r.kind.map(sensor_name));
@@ -198,6 +205,8 @@ impl Common {
             s("key", Arc::new(self.key.finish())),
             s("status", Arc::new(self.status.finish())),
             s("error", Arc::new(self.error.finish())),
+            s("error_column", Arc::new(self.error_column.finish())),
+            s("error_row", Arc::new(self.error_row.finish())),
             s("channel_index", Arc::new(self.channel_index.finish())),
             s("channel", Arc::new(self.channel.finish())),
             s("kind", Arc::new(self.kind.finish())),
@@ -399,6 +408,8 @@ fn records_from_batch(b: &RecordBatch, out: &mut Vec<ChannelRecord>) -> Result<(
         text("status")?,
         text("error")?,
     );
+    let error_column = text("error_column")?;
+    let error_row = column::<UInt64Array>(b, "error_row")?;
     let channel_index = column::<UInt32Array>(b, "channel_index")?;
     let (channel, kind) = (text("channel")?, text("kind")?);
     let rate = column::<Float64Array>(b, "rate_hz")?;
@@ -448,6 +459,8 @@ fn records_from_batch(b: &RecordBatch, out: &mut Vec<ChannelRecord>) -> Result<(
                 Status::Error
             },
             error: s(error, i),
+            error_column: s(error_column, i),
+            error_row: opt(error_row.is_valid(i), error_row.value(i)),
             channel_index: opt(channel_index.is_valid(i), channel_index.value(i)),
             channel: s(channel, i),
             kind: s(kind, i).and_then(|k| parse_sensor(&k)),

@@ -419,6 +419,17 @@ fn bad_files_are_error_rows_and_do_not_stop_the_batch() {
     std::fs::write(fleet.join("corrupt.arrow"), b"ARROW1\0\0 not really").unwrap();
     std::fs::write(fleet.join("empty.csv"), b"").unwrap();
     std::fs::write(fleet.join("mislabelled.parquet"), b"time,gyro_x\n0,1\n").unwrap();
+    // A missing sample in data row 300 of gyro_x: the row names the column and the row.
+    let mut nan = String::from("time,gyro_x [rad/s]\n");
+    for i in 0..600 {
+        let v = if i == 300 {
+            String::new()
+        } else {
+            format!("{:e}", 1e-3 * ((i * 7919) % 13) as f64)
+        };
+        nan.push_str(&format!("{},{v}\n", i as f64 / FS));
+    }
+    std::fs::write(fleet.join("nan.csv"), nan).unwrap();
     std::fs::write(tmp.path().join("list.txt"), "# the fleet\nfleet\n").unwrap();
     std::fs::write(tmp.path().join("more.txt"), "fleet/gone.arrow\n").unwrap();
     // Two lists (--files-from repeats).
@@ -442,6 +453,7 @@ fn bad_files_are_error_rows_and_do_not_stop_the_batch() {
         "empty.csv",
         "mislabelled.parquet",
         "gone.arrow",
+        "nan.csv",
     ] {
         assert!(
             err.lines()
@@ -451,7 +463,7 @@ fn bad_files_are_error_rows_and_do_not_stop_the_batch() {
     }
     assert_eq!(lines_starting(&o, "done  "), 5, "{err}");
     let out = tmp.path().join("out");
-    assert_eq!(parts(&out).len(), 9);
+    assert_eq!(parts(&out).len(), 10);
     let table = read_batches(&out.join("fleet.parquet"));
     let status = column_text(&table, "status");
     let sensors = column_text(&table, "sensor");
@@ -461,7 +473,29 @@ fn bad_files_are_error_rows_and_do_not_stop_the_batch() {
         .filter(|(_, s)| *s == "error")
         .map(|(s, _)| s.as_str())
         .collect();
-    assert_eq!(errors, ["corrupt", "empty", "gone", "mislabelled"]);
+    assert_eq!(errors, ["corrupt", "empty", "gone", "mislabelled", "nan"]);
+    // The place in the file, as columns.
+    let rows: Vec<Option<u64>> = table
+        .iter()
+        .flat_map(|b| {
+            let c = b.column_by_name("error_row").expect("error_row");
+            let c = c
+                .as_any()
+                .downcast_ref::<arrow_array::UInt64Array>()
+                .expect("u64");
+            (0..c.len())
+                .map(|i| (!arrow_array::Array::is_null(c, i)).then(|| c.value(i)))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let place: Vec<(String, Option<u64>)> = column_text(&table, "error_column")
+        .into_iter()
+        .zip(rows)
+        .zip(&sensors)
+        .filter(|(_, s)| *s == "nan")
+        .map(|(p, _)| p)
+        .collect();
+    assert_eq!(place, [("gyro_x".to_string(), Some(300))]);
     assert_eq!(status.iter().filter(|s| *s == "ok").count(), 15);
     assert!(column_text(&table, "error")
         .iter()
