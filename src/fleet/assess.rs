@@ -516,29 +516,28 @@ fn unit_hint(ratio: f64) -> Option<String> {
 /// fail alike say nothing. Different encodings of the same data (CSV text and Arrow floats)
 /// round differently and are not found.
 fn same_data(records: &[ChannelRecord]) -> BTreeMap<String, Vec<String>> {
-    let mut prints: BTreeMap<&str, (Vec<u64>, &str)> = BTreeMap::new();
+    // Per input: each analysed channel's name, sample count and the bits of every estimate.
+    type Print<'a> = Vec<(&'a str, Option<u64>, Vec<Option<u64>>)>;
+    let mut prints: BTreeMap<&str, (Print<'_>, &str)> = BTreeMap::new();
     for r in records
         .iter()
         .filter(|r| r.status == Status::Ok && r.analysed)
     {
-        let entry = prints.entry(r.key.as_str()).or_insert((Vec::new(), &r.rel));
-        let name = r.channel.as_deref().unwrap_or("");
-        // The name folded into one word, then the numbers' bits.
-        entry
+        let bits = r
+            .terms
+            .iter()
+            .flat_map(|t| [t.value, t.lo, t.hi, t.upper])
+            .map(|v| v.map(f64::to_bits))
+            .collect();
+        prints
+            .entry(r.key.as_str())
+            .or_insert((Vec::new(), &r.rel))
             .0
-            .push(name.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-                (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
-            }));
-        entry.0.push(r.samples.unwrap_or(0));
-        for t in &r.terms {
-            for v in [t.value, t.lo, t.hi, t.upper] {
-                entry.0.push(v.map_or(u64::MAX, f64::to_bits));
-            }
-        }
+            .push((r.channel.as_deref().unwrap_or(""), r.samples, bits));
     }
-    let mut groups: BTreeMap<&[u64], Vec<(&str, &str)>> = BTreeMap::new();
+    let mut groups: BTreeMap<&Print<'_>, Vec<(&str, &str)>> = BTreeMap::new();
     for (key, (print, rel)) in &prints {
-        groups.entry(print.as_slice()).or_default().push((key, rel));
+        groups.entry(print).or_default().push((key, rel));
     }
     let mut out = BTreeMap::new();
     for members in groups.values().filter(|m| m.len() > 1) {

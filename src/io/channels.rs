@@ -191,11 +191,21 @@ fn lookup<T: Copy>(entries: &[(String, T)], column: &str) -> Option<T> {
     if let Some((_, v)) = entries.iter().rev().find(|(c, _)| c == column) {
         return Some(*v);
     }
-    entries
+    best_patterns(entries, column).last().map(|(_, v)| *v)
+}
+
+/// The patterns of `entries` that match `column` and are the most specific of those that do,
+/// in the order given.
+fn best_patterns<'a, T>(entries: &'a [(String, T)], column: &str) -> Vec<&'a (String, T)> {
+    let matching: Vec<&(String, T)> = entries
         .iter()
         .filter(|(c, _)| is_pattern(c) && matches_pattern(c, column))
-        .max_by_key(|(c, _)| specificity(c))
-        .map(|(_, v)| *v)
+        .collect();
+    let best = matching.iter().map(|(c, _)| specificity(c)).max();
+    matching
+        .into_iter()
+        .filter(|(c, _)| Some(specificity(c)) == best)
+        .collect()
 }
 
 /// Whether a `--unit`/`--kind` column is a pattern.
@@ -210,7 +220,7 @@ fn specificity(pattern: &str) -> usize {
 
 /// Whether `name` matches `pattern` (`*` any run of characters, `?` one character; the rest
 /// literally, letter case included, as column names are).
-pub fn matches_pattern(pattern: &str, name: &str) -> bool {
+fn matches_pattern(pattern: &str, name: &str) -> bool {
     let p: Vec<char> = pattern.chars().collect();
     let n: Vec<char> = name.chars().collect();
     // Greedy matching with backtracking to the last star: linear in practice.
@@ -610,18 +620,11 @@ fn check_patterns_agree<T: PartialEq + std::fmt::Display>(
         if entries.iter().any(|(c, _)| c == name) {
             continue;
         }
-        let matching: Vec<&(String, T)> = entries
-            .iter()
-            .filter(|(c, _)| is_pattern(c) && matches_pattern(c, name))
-            .collect();
-        let Some(best) = matching.iter().map(|(c, _)| specificity(c)).max() else {
+        let top = best_patterns(entries, name);
+        let Some(first) = top.first() else {
             continue;
         };
-        let top: Vec<&&(String, T)> = matching
-            .iter()
-            .filter(|(c, _)| specificity(c) == best)
-            .collect();
-        if let Some(other) = top.iter().find(|(_, v)| *v != top[0].1) {
+        if let Some(other) = top.iter().find(|(_, v)| *v != first.1) {
             return Err(InputError::OptionOutOfRange {
                 path: path.to_path_buf(),
                 flag,
@@ -629,7 +632,7 @@ fn check_patterns_agree<T: PartialEq + std::fmt::Display>(
                     "column {name:?} matches both {:?} and {:?}, which say different things \
                      ({} and {}); name the column itself ({flag} {name}=…) or make one \
                      pattern longer",
-                    top[0].0, other.0, top[0].1, other.1
+                    first.0, other.0, first.1, other.1
                 ),
             });
         }

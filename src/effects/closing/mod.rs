@@ -546,9 +546,10 @@ pub(super) enum NoiseK {
     Guarded,
     /// The fit's kept terms only: a left-out term (K above all) at 0, not at its upper limit.
     /// For the refinement of a coupling that the model-free test finds below
-    /// [`slow_candidates::KEPT_P`], under the fit of the series with the coupling removed: on a short record the upper limit of a K that fit does
-    /// not keep rests on the few averages of the longest τ, and weighed at it a warm-up the
-    /// temperature drives was still "explained" by the random walk (a 1.5e-4 (rad/s)/°C coupling
+    /// [`slow_candidates::KEPT_P`], under the fit of the series with the coupling removed: on a
+    /// short record the upper limit of a K that fit does not keep rests on the few averages of
+    /// the longest τ, and weighed at it a warm-up the temperature drives was still "explained"
+    /// by the random walk (a 1.5e-4 (rad/s)/°C coupling
     /// over a 3-°C, Tc-300-s warm-up in a 10-min record read t = 1.5 under a K limit of
     /// 58 °/h/√h that the coupling-free series' increments reject, t = 4.8 without it; the base
     /// fit then printed K = 61 [48, 99] °/h/√h against a truth of 2). The spurious regression
@@ -693,7 +694,7 @@ fn k_standing_for_a_coupling(
         return None;
     }
     let k_value = k.value;
-    let found = coupling_taking_k(state, allan, fs, aux, cfg, p, k_value)?;
+    let (aux_name, c) = coupling_taking_k(state, allan, fs, aux, cfg, p)?;
     for f in [state.allan.as_mut(), state.spectrum.as_mut()]
         .into_iter()
         .flatten()
@@ -706,21 +707,25 @@ fn k_standing_for_a_coupling(
             e.lo = 0.0;
         }
     }
-    Some(found)
+    Some(KOrCoupling {
+        aux: aux_name.to_string(),
+        coefficient: c.coefficient,
+        p_value: c.p_value,
+        k: k_value,
+    })
 }
 
-/// The first aux channel whose coupling, estimated under `allan` (the final Allan fit, K
-/// `k_value`) at least one standard error from 0 and taken out of the series, leaves an Allan fit
-/// without a determined K.
-fn coupling_taking_k(
+/// The first aux channel (its name and coupling) whose coupling, estimated under `allan` (the
+/// final Allan fit) at least one standard error from 0 and taken out of the series, leaves an
+/// Allan fit without a determined K.
+fn coupling_taking_k<'a>(
     state: &State,
     allan: &NoiseFit,
     fs: f64,
-    aux: &[AuxSeries<'_>],
+    aux: &[AuxSeries<'a>],
     cfg: &LoopConfig,
     p: f64,
-    k_value: f64,
-) -> Option<KOrCoupling> {
+) -> Option<(&'a str, Coupling)> {
     let density = noise_density(allan, state.stochastic.as_ref(), fs, NoiseK::Fitted);
     let usable: Vec<&AuxSeries<'_>> = aux
         .iter()
@@ -736,12 +741,7 @@ fn coupling_taking_k(
             remove_coupling(v, a.samples, &c)
         })?;
         let k_gone = refit.get(Term::RateRandomWalk).is_none_or(|e| e.lo <= 0.0);
-        k_gone.then(|| KOrCoupling {
-            aux: a.name.to_string(),
-            coefficient: c.coefficient,
-            p_value: c.p_value,
-            k: k_value,
-        })
+        k_gone.then_some((a.name, c))
     })
 }
 

@@ -136,8 +136,9 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
         Some(h) => (h, Some(first)),
         None => (first, None),
     };
+    let header_is_a_comment = pending.is_some();
     let mut metadata = metadata;
-    if pending.is_some() {
+    if header_is_a_comment {
         metadata.insert(HEADER_KEY.to_string(), HEADER_IN_COMMENT.to_string());
     }
     let mut names = Vec::with_capacity(header.fields.len());
@@ -215,7 +216,7 @@ pub fn schema(path: &Path, file: &mut File) -> Result<Schema, InputError> {
     // arrow-csv's inference, for the types beyond numbers and text (timestamps, dates, booleans).
     rewind(file).map_err(io_error)?;
     let (inferred, _) = arrow_csv::reader::Format::default()
-        .with_header(!metadata.contains_key(HEADER_KEY))
+        .with_header(!header_is_a_comment)
         .with_comment(COMMENT)
         .infer_schema(BufReader::new(&mut *file), Some(INFER_ROWS))
         .map_err(|e| malformed(path, None, None, super::plain(&e.to_string())))?;
@@ -654,21 +655,13 @@ impl Decode {
 fn record_of_row(path: &Path, row: u64) -> Option<RawRecord> {
     let (_, last_comment) = preamble(path, BufReader::new(open(path).ok()?)).ok()?;
     let mut scanner = Scanner::new(BufReader::new(open(path).ok()?));
-    let first = scanner.next_record().ok()??;
-    if last_comment.is_some_and(|c| is_header_of(&c.text, &first)) {
-        // The header is a comment: the first record is row 0.
-        if row == 0 {
-            return Some(first);
-        }
-        for _ in 1..row {
-            scanner.next_record().ok()??;
-        }
-        return scanner.next_record().ok()?;
+    let mut record = scanner.next_record().ok()??;
+    // Row 0 is the first record where the header is a comment, the one after it otherwise.
+    let header_is_a_comment = last_comment.is_some_and(|c| is_header_of(&c.text, &record));
+    for _ in 0..row + u64::from(!header_is_a_comment) {
+        record = scanner.next_record().ok()??;
     }
-    for _ in 0..row {
-        scanner.next_record().ok()??;
-    }
-    scanner.next_record().ok()?
+    Some(record)
 }
 
 /// The 1-based line of the file where a data row starts.
