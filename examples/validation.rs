@@ -228,6 +228,15 @@ fn study_cases() -> Vec<Case> {
             rate: None,
         },
         Case {
+            name: "sinc³ decimator (↓4), then digital low-pass order 2 at 25 Hz".into(),
+            filtered: true,
+            extra: json!({ "lowpass": { "corner_hz": 25.0, "order": 2 },
+                           "decimator": { "stages": 3, "factor": 4 } }),
+            expect: None,
+            seconds: None,
+            rate: None,
+        },
+        Case {
             name: "wandering line 12 Hz (±0.05 Hz, ±20 %, 10 s) ≈ 100× floor, low-pass order 2 at 25 Hz".into(),
             filtered: true,
             extra: json!({ "lowpass": { "corner_hz": 25.0, "order": 2 },

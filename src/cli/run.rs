@@ -233,11 +233,7 @@ pub fn run(job: &Job) -> i32 {
                 for a in r.analysis.iter().flatten() {
                     if let (Some(b), false) = (&a.bandwidth, job.output.quiet) {
                         let edge = match b.cause {
-                            BandEdge::LowPass => format!(
-                                "sensor low-pass at {} Hz (order {})",
-                                report::sig4(b.lowpass.corner_hz),
-                                b.lowpass.order
-                            ),
+                            BandEdge::LowPass => report::lowpass_text(&b.lowpass),
                             BandEdge::AngleQuantiser { steps_per_sigma, .. } => format!(
                                 "an edge at {} Hz from the coarse angle grid ({:.1} σ per step), no filter claimed",
                                 report::sig4(b.lowpass.corner_hz),

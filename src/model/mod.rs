@@ -63,6 +63,7 @@ mod bandwidth;
 mod combine;
 mod compare;
 mod correlation;
+mod decimator;
 mod effect;
 mod error;
 mod fit;
@@ -85,6 +86,7 @@ pub use combine::{
     CombinedTerm, FitWarning, ReadOff,
 };
 pub use compare::{compare, TermComparison};
+pub use decimator::Decimator;
 pub use effect::EffectShape;
 pub use error::FitError;
 pub use options::FitOptions;

@@ -32,8 +32,10 @@ pub struct FitOptions {
     /// the recording follows the IEEE model ([`crate::model::detect_bandwidth`]).
     pub detect_bandwidth: bool,
     /// The sensor's low-pass response, when one was detected (set with the band by
-    /// [`crate::model::Bandwidth::restrict`]): the residual loop's line search runs up to its
-    /// corner with the model multiplied by it, for narrow lines only.
+    /// [`crate::model::Bandwidth::restrict`]): the spectrum fit's terms (quantisation's
+    /// excepted) are multiplied by it, the Allan fit's N column by the share of white noise it
+    /// leaves, and the residual loop's line search runs up to its corner with the model
+    /// multiplied by it, for narrow lines only.
     pub lowpass: Option<LowPass>,
     /// Count the choice of terms as uncertain: each kept term's value averaged over the competing
     /// subsets with their BIC weights and its interval widened by their spread (see

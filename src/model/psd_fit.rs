@@ -189,12 +189,19 @@ pub(crate) fn spectrum_problem(
                 .map(|k| {
                     let i = ((f64::from(k) + 0.5) * f64::from(bins) / f64::from(count)).floor();
                     let f = first + i * df;
+                    let gain = opts.lowpass.map_or(1.0, |lp| lp.power_gain(f));
                     let values = std::array::from_fn(|j| {
                         let term = Term::ALL[j];
                         // Second-order leakage of S ∝ f^−p: ½S″·σ² = S·p(p+1)σ²/(2f²).
                         let p = -f64::from(term.alpha());
                         let leak = 1.0 + p * (p + 1.0) * spread2 / (2.0 * f * f);
-                        term.psd_sampled_unit(f, psd.rate_hz) * leak
+                        // The sensor's filter acts on the rate before the output is rounded.
+                        let filtered = if term == Term::Quantization {
+                            1.0
+                        } else {
+                            gain
+                        };
+                        term.psd_sampled_unit(f, psd.rate_hz) * leak * filtered
                     });
                     (f, values)
                 })

@@ -24,6 +24,20 @@ pub fn sig4(v: f64) -> String {
     }
 }
 
+/// What a band's edge was read as: "sensor low-pass at 250.0 Hz (order 2)", "sinc³ decimator
+/// (CIC) then low-pass at 250.0 Hz (order 2)", "sinc³ decimator (CIC), half power at 266.0 Hz".
+pub fn lowpass_text(lp: &crate::model::LowPass) -> String {
+    let corner = sig4(lp.corner_hz);
+    match (lp.decimator, lp.order) {
+        (None, order) => format!("sensor low-pass at {corner} Hz (order {order})"),
+        (Some(d), 0) => format!("{}, half power at {corner} Hz", d.describe()),
+        (Some(d), order) => format!(
+            "{} then low-pass at {corner} Hz (order {order})",
+            d.describe()
+        ),
+    }
+}
+
 /// `digits` significant digits, trailing zeros dropped: 100.00000000002967 → `100`,
 /// 207.01234 → `207.012` (6 digits), 0.000123456 → `0.000123456`, 1.5e-7 → `1.5e-7`.
 pub fn sig(v: f64, digits: usize) -> String {

@@ -24,7 +24,7 @@ use serde_json::{json, Value};
 
 pub use atomic::{sweep_temporaries, write_atomically, OutputError};
 pub use figures::{avar_figure, psd_figure};
-pub use format::sig4;
+pub use format::{lowpass_text, sig4};
 pub use info::info_text;
 pub use json_layout::write_json as write_json_layout;
 pub use kalibr::imu_yaml;
@@ -44,7 +44,7 @@ use crate::units::Unit;
 use crate::Error;
 
 /// Version of the JSON document and table layout; bumped on any incompatible change.
-pub const SCHEMA_VERSION: u32 = 10;
+pub const SCHEMA_VERSION: u32 = 11;
 
 /// Output formats for tables and the document.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -330,14 +330,13 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
             );
             notes.push(match b.cause {
                 BandEdge::LowPass => format!(
-                    "{}: sensor low-pass detected ({} form, corner {} Hz, order {}, {:.0} dB/decade, ΔBIC {:.0}); {band}",
+                    "{}: {} detected ({} form, {:.0} dB/decade envelope, ΔBIC {:.0}); {band}",
                     a.channel,
+                    super::lowpass_text(&b.lowpass),
                     match b.lowpass.form {
                         crate::model::FilterForm::Analog => "analog",
                         crate::model::FilterForm::Digital { .. } => "digital",
                     },
-                    sig4(b.lowpass.corner_hz),
-                    b.lowpass.order,
                     b.slope_db_per_decade,
                     b.delta_bic,
                 ),

@@ -93,8 +93,74 @@ fn rng_for(channel_seed: u64, component: Component, index: usize) -> Rng {
 }
 
 /// Samples of `spec` (SI units), `n` at `rate_hz`; `drift_temperature` is T(t) − T₀ when the
-/// channel has a temperature coefficient.
+/// channel has a temperature coefficient. With a decimator, everything the sensor senses is
+/// made at `factor` times the rate and decimated; the low-pass, quantisation, spikes and the
+/// output's rounding follow at the output rate.
 pub fn simulate_channel(
+    spec: &ChannelSpec,
+    n: usize,
+    rate_hz: f64,
+    channel_seed: u64,
+    drift_temperature: Option<&[f64]>,
+) -> Vec<f64> {
+    let c = &spec.noise;
+    let mut y = match &spec.decimator {
+        None => sensed(spec, n, rate_hz, channel_seed, drift_temperature),
+        Some(d) => {
+            let f = d.factor as usize;
+            // The temperature is slow: held over each output interval.
+            let held: Option<Vec<f64>> = drift_temperature
+                .map(|t| t.iter().flat_map(|&v| std::iter::repeat_n(v, f)).collect());
+            let fine = sensed(
+                spec,
+                n * f,
+                rate_hz * f as f64,
+                channel_seed,
+                held.as_deref(),
+            );
+            decimate_cic(&fine, d.stages, f)
+        }
+    };
+    if let Some(lp) = &spec.lowpass {
+        apply_lowpass(&mut y, rate_hz, lp);
+    }
+    if c.q > 0.0 {
+        let start = rng_for(channel_seed, Component::Quantisation, 0).uniform();
+        quantize(&mut y, rate_hz, c.q, start);
+    }
+    for (i, sign) in spikes(spec, n, channel_seed) {
+        y[i] += sign * spec.spikes.map_or(0.0, |s| s.size);
+    }
+    if let Some(lsb) = spec.lsb.filter(|l| *l > 0.0) {
+        for v in &mut y {
+            *v = (*v / lsb).round() * lsb;
+        }
+    }
+    y
+}
+
+/// `stages` cascaded moving averages of `factor` samples, then every `factor`-th output (the
+/// last of each block of input samples): a CIC (sinc^k) decimator with unit DC gain. The history
+/// before the first sample is that sample (a running sensor, no start transient).
+fn decimate_cic(x: &[f64], stages: u32, factor: usize) -> Vec<f64> {
+    let mut y = x.to_vec();
+    for _ in 0..stages {
+        let first = y.first().copied().unwrap_or(0.0);
+        let mut sum = first * factor as f64;
+        let mut out = Vec::with_capacity(y.len());
+        for i in 0..y.len() {
+            let leaving = if i >= factor { y[i - factor] } else { first };
+            sum += y[i] - leaving;
+            out.push(sum / factor as f64);
+        }
+        y = out;
+    }
+    y.into_iter().skip(factor - 1).step_by(factor).collect()
+}
+
+/// Everything the sensor senses, before its filters and its output stage: `n` samples at
+/// `rate_hz`, each the mean rate over its interval.
+fn sensed(
     spec: &ChannelSpec,
     n: usize,
     rate_hz: f64,
@@ -156,21 +222,6 @@ pub fn simulate_channel(
     }
     for st in &spec.steps {
         add_step(&mut y, rate_hz, st);
-    }
-    if let Some(lp) = &spec.lowpass {
-        apply_lowpass(&mut y, rate_hz, lp);
-    }
-    if c.q > 0.0 {
-        let start = rng_for(channel_seed, Component::Quantisation, 0).uniform();
-        quantize(&mut y, rate_hz, c.q, start);
-    }
-    for (i, sign) in spikes(spec, n, channel_seed) {
-        y[i] += sign * spec.spikes.map_or(0.0, |s| s.size);
-    }
-    if let Some(lsb) = spec.lsb.filter(|l| *l > 0.0) {
-        for v in &mut y {
-            *v = (*v / lsb).round() * lsb;
-        }
     }
     y
 }

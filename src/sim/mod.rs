@@ -63,8 +63,8 @@ pub use flicker::shaped_noise;
 pub use lowpass::lowpass_power_gain;
 pub(crate) use quantize::quantize;
 pub use spec::{
-    ChannelSpec, DriftSpec, ExponentialDrift, LineWander, LowPassSpec, ResonanceSpec, SimSpec,
-    SinusoidSpec, SpikeSpec, StepSpec, TemperatureSpec,
+    ChannelSpec, DecimatorSpec, DriftSpec, ExponentialDrift, LineWander, LowPassSpec,
+    ResonanceSpec, SimSpec, SinusoidSpec, SpikeSpec, StepSpec, TemperatureSpec,
 };
 
 /// A simulated recording.
@@ -240,6 +240,7 @@ mod tests {
                     resonances: vec![],
                     drift: None,
                     lowpass: None,
+                    decimator: None,
                     lsb: None,
                     white_tail_dof: None,
                     flicker_corner_hz: None,

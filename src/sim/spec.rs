@@ -73,6 +73,11 @@ pub struct ChannelSpec {
     /// rate over its interval).
     #[serde(default)]
     pub lowpass: Option<LowPassSpec>,
+    /// A CIC (sinc^k) decimator before the low-pass: the sensed signal is made at `factor` times
+    /// the output rate, averaged `stages` times over `factor` samples and decimated (what most
+    /// sigma-delta MEMS parts do). `None`: none.
+    #[serde(default)]
+    pub decimator: Option<DecimatorSpec>,
     /// The output's resolution (rad/s or m/s²): each rate sample, spikes included, is rounded to
     /// a whole number of `lsb`, as a rate sensor's converter does. Unlike Q (an integrated angle
     /// rounded, whose error differences to blue rate noise), the rounding error of the rate itself
@@ -101,6 +106,14 @@ pub struct LowPassSpec {
     pub order: u32,
 }
 
+/// `stages` cascaded moving averages of `factor` input samples, every `factor`-th kept.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DecimatorSpec {
+    pub stages: u32,
+    pub factor: u32,
+}
+
 impl ChannelSpec {
     /// A channel of `sensor` with the IEEE `noise` (SI) and nothing else: no bias, no effects.
     pub fn new(name: impl Into<String>, sensor: Sensor, noise: Coefficients) -> Self {
@@ -117,6 +130,7 @@ impl ChannelSpec {
             resonances: vec![],
             drift: None,
             lowpass: None,
+            decimator: None,
             lsb: None,
             white_tail_dof: None,
             flicker_corner_hz: None,
@@ -382,6 +396,14 @@ impl SimSpec {
                 }
                 if !(1..=16).contains(&lp.order) {
                     return Err(bad("lowpass.order", f64::from(lp.order)));
+                }
+            }
+            if let Some(d) = &ch.decimator {
+                if !(1..=5).contains(&d.stages) {
+                    return Err(bad("decimator.stages", f64::from(d.stages)));
+                }
+                if !(2..=64).contains(&d.factor) {
+                    return Err(bad("decimator.factor", f64::from(d.factor)));
                 }
             }
             if ch.temperature_coefficient != 0.0 && self.temperature.is_none() {
