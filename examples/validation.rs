@@ -93,6 +93,8 @@ struct Tally {
     settled_covered: usize,
     runs: usize,
     detected: usize,
+    /// Filters read with a sinc^k decimator, and with how many stages (k).
+    decimators: Vec<u32>,
     with_effect: usize,
     effects: Vec<&'static str>,
     ratio: [Vec<f64>; 3],
@@ -631,6 +633,15 @@ fn main() {
             // A filter claimed: an edge the output's coarse angle grid makes is not one.
             tally.detected +=
                 usize::from(o.report.bandwidth.as_ref().is_some_and(|b| b.is_filter()));
+            if let Some(d) = o
+                .report
+                .bandwidth
+                .as_ref()
+                .filter(|b| b.is_filter())
+                .and_then(|b| b.lowpass.decimator)
+            {
+                tally.decimators.push(d.stages);
+            }
             if !o.report.steps.is_empty() {
                 tally.with_effect += 1;
                 // Each kind once per record: the column counts records.
@@ -945,6 +956,24 @@ fn main() {
                 tally.runs,
                 median(&mut tally.resolution_ratios),
                 pct(tally.resolution_covered, tally.resolution_found)
+            ));
+        }
+        if !tally.decimators.is_empty() {
+            let mut stages = tally.decimators.clone();
+            stages.sort_unstable();
+            let mut counts: Vec<String> = Vec::new();
+            for k in 2..=5 {
+                let c = stages.iter().filter(|&&s| s == k).count();
+                if c > 0 {
+                    counts.push(format!("sinc{k} {c}"));
+                }
+            }
+            edge_notes.push(format!(
+                "{}: the filter read with a decimator in {} of {} records ({}).",
+                case.name,
+                tally.decimators.len(),
+                tally.runs,
+                counts.join(", ")
             ));
         }
         if tally.heavy_tail_found > 0 {
