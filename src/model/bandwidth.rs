@@ -18,7 +18,7 @@
 //! form), each family's best corner is refined by a golden-section search within one grid step,
 //! the best family's once more with every fit settled, and a decimator's factor is chosen among
 //! 2–32 or large with the corner refined at each. A low-pass after a decimator is charged one
-//! parameter more, and a decimator is dropped for the best response without one where the band
+//! parameter more than a low-pass, a decimator alone one fewer, and a decimator is dropped for the best response without one where the band
 //! below the latter's 2 % edge refutes it or holds a narrow excess (see `detect_bandwidth`). A
 //! roll-off is reported when the best filtered model beats the unfiltered one by ΔBIC < −25
 //! (two more parameters; far beyond "very strong" on the Kass–Raftery scale) and attenuates the
@@ -535,14 +535,18 @@ pub fn detect_bandwidth(
             ll + charged
         }
     };
-    // A low-pass after a decimator is charged one parameter more than either alone (the
-    // decimator's stages on top of the low-pass's corner and order).
-    let cascade_penalty = (plain.len() as f64).ln();
+    // Parameters against a low-pass (a corner): a low-pass after a decimator is charged one more
+    // (the decimator's stages on top of the corner), a decimator alone one fewer (no continuous
+    // parameter). A sinc² decimator's response is exactly a first-order low-pass at fs/4 over a
+    // white floor a third of the level, and sinc³'s nearly one over a floor of 13 %: charged
+    // alike, the low-pass and the floor were read, and the floor is no part of the fits' response
+    // (N 0.6–0.9 % low).
+    let parameter = (plain.len() as f64).ln();
     let try_filter = |lp: LowPass, floor: bool, settle: Settle| -> f64 {
-        let charge = if lp.decimator.is_some() && lp.order > 0 {
-            cascade_penalty
-        } else {
-            0.0
+        let charge = match (lp.decimator.is_some(), lp.order > 0) {
+            (true, true) => parameter,
+            (true, false) => -parameter,
+            _ => 0.0,
         };
         charge + try_response(lp, floor, settle)
     };
@@ -831,7 +835,9 @@ pub fn detect_bandwidth(
                 ll
             }
         };
-        let delta = in_band(&with.1) - in_band(&without.1) + (idx.len() as f64).ln();
+        // The decimator's parameters against the low-pass's, as in the search.
+        let charge = if with.1.order > 0 { 1.0 } else { -1.0 };
+        let delta = in_band(&with.1) - in_band(&without.1) + charge * (idx.len() as f64).ln();
         // A line or a peak inside that band: a decimator's droop cannot be told from a
         // resonance's skirt and plateau (a Q-20 resonance at 7 Hz, 15× the floor at its peak,
         // behind a 4th-order 26-Hz low-pass at 100 Hz, was read as a sinc² decimator whose droop
