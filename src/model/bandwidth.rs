@@ -18,8 +18,9 @@
 //! form), each family's best corner is refined by a golden-section search within one grid step,
 //! the best family's once more with every fit settled, and a decimator's factor is chosen among
 //! 2–32 or large with the corner refined at each. A low-pass after a decimator is charged one
-//! parameter more than a low-pass, a decimator alone one fewer, and a decimator is dropped for the best response without one where the band
-//! below the latter's 2 % edge refutes it or holds a narrow excess (see `detect_bandwidth`). A
+//! parameter more than a low-pass, a decimator alone one fewer, and a decimator is dropped for
+//! the best response without one where the band below the latter's 2 % edge refutes it or holds
+//! a narrow excess (see `detect_bandwidth`). A
 //! roll-off is reported when the best filtered model beats the unfiltered one by ΔBIC < −25
 //! (two more parameters; far beyond "very strong" on the Kass–Raftery scale) and attenuates the
 //! top fitted band by at least 1 dB. Both guards were set on a broad resonance (Q = 20 at 8 Hz,
@@ -87,6 +88,7 @@ fn narrow_excess(p: &Problem, i: usize) -> bool {
     let nu = p.edf[i][0].max(1.0);
     med > 0.0 && p.value[i] / med - 1.0 > EXCESS_Z * (2.0 / nu).sqrt()
 }
+
 /// ΔBIC (the decimator's response against the best without one, on the bands below the latter's
 /// 2 % edge) beyond which the band refutes the decimator (strong evidence on the Kass–Raftery
 /// scale).
@@ -113,8 +115,8 @@ const DECIMATOR_FACTORS: [Option<u32>; 9] = [
 ];
 /// Corners per decade of the first, coarse scan (see [`detect_bandwidth`]).
 const COARSE_PER_DECADE: f64 = 8.0;
-/// Relative change of the coefficients at which the coarse and the 24-per-decade scans take a
-/// trial's fit as settled: they only rank trials whose scores differ by whole units, which a
+/// Relative change of the coefficients at which the coarse scan and the families' corner searches
+/// take a trial's fit as settled: they only rank trials whose scores differ by whole units, which a
 /// fit settled to a thousandth moves by far less; the refinement and the detection's ΔBIC use
 /// fits settled to 1e-6 as every reported fit does.
 const RANKING_TOLERANCE: f64 = 1e-3;
@@ -167,12 +169,7 @@ impl LowPass {
 
     /// |H(f)|² (with a decimator, its folded response times the low-pass's).
     pub fn power_gain(&self, f_hz: f64) -> f64 {
-        let lp = if self.order == 0 {
-            1.0
-        } else {
-            self.gain_at_ratio(self.ratio(f_hz))
-        };
-        lp * self.decimator_gain(f_hz)
+        self.gain_at_ratio(self.ratio(f_hz)) * self.decimator_gain(f_hz)
     }
 
     /// The decimator's folded response at f (1 without one).
@@ -437,9 +434,10 @@ pub fn detect_bandwidth(
     }
     // Narrow excesses (lines, resonances) are left out: a low-pass explains only a deficit, and
     // an excess it cannot fit would otherwise bend the comparison.
-    let keep: Vec<usize> = (0..full.len())
-        .filter(|&i| !narrow_excess(&full, i))
-        .collect();
+    // Which bands are narrow excesses: left out of the detection, and asked again by the
+    // decimator's gate, the edge's check and the edge's step below a line.
+    let excess: Vec<bool> = (0..full.len()).map(|i| narrow_excess(&full, i)).collect();
+    let keep: Vec<usize> = (0..full.len()).filter(|&i| !excess[i]).collect();
     let plain = full.subset(&keep);
     let x: Vec<f64> = keep.iter().map(|&i| x_full[i]).collect();
     let n = plain.len();
@@ -559,11 +557,12 @@ pub fn detect_bandwidth(
             .map(|k| lo * 10f64.powf(k as f64 / per_decade))
             .collect()
     };
-    // Every family's trials on a grid of `per_decade` corners from `lo` to `hi` (a digital corner
-    // below Nyquist). Trials are scored in parallel (the channel's other cores are idle when a
-    // file has fewer channels than cores, or at the end of a file) and ties go to the first in
-    // this order, as a sequential scan's would.
-    let trials_between = |per_decade: f64, lo: f64, hi: f64, decimated: bool| -> Vec<LowPass> {
+    // Every family's trials on the coarse grid of corners from `f_lo` to `f_hi` (a digital corner
+    // below Nyquist), with the decimators' families where `decimated`. Trials are scored in
+    // parallel (the channel's other cores are idle when a file has fewer channels than cores, or
+    // at the end of a file) and ties go to the first in this order, as a sequential scan's would.
+    let coarse_trials = |decimated: bool| -> Vec<LowPass> {
+        let (per_decade, lo, hi) = (COARSE_PER_DECADE, f_lo, f_hi);
         let mut trials = Vec::new();
         for form in forms {
             // A digital corner lies below Nyquist.
@@ -719,7 +718,7 @@ pub fn detect_bandwidth(
     // settled (to 1/500 decade within 1/24 decade), then a decimator's factor with the corner
     // refined at each.
     let search = |floor: bool, decimated: bool| -> (f64, LowPass) {
-        let mut coarse = trials_between(COARSE_PER_DECADE, f_lo, f_hi, decimated);
+        let mut coarse = coarse_trials(decimated);
         if decimated {
             coarse.extend(decimators.iter().map(|&d| LowPass::decimator_alone(d, fs)));
         }
@@ -800,7 +799,7 @@ pub fn detect_bandwidth(
     // A decimator is not claimed where the band the fits keep refutes it: the best response
     // without one is found as well, and where it beats the decimator's by more than
     // [`DECIMATOR_REFUTED_BIC`] on the bands below its own 2 % edge (every coefficient refitted
-    // there, the decimator charged one parameter), it is taken instead. Above the corner a broad
+    // there, parameters counted as in the search), it is taken instead. Above the corner a broad
     // excess (a Q-25 resonance at 380 Hz on a 250-Hz second-order filter's skirt, 1-kHz rate)
     // was matched better by a sinc⁴ decimator's droop and a 390-Hz corner than by the true
     // low-pass, and the fit band was cut to 39 Hz; the in-band data refuted that droop. The
@@ -842,7 +841,7 @@ pub fn detect_bandwidth(
         // resonance's skirt and plateau (a Q-20 resonance at 7 Hz, 15× the floor at its peak,
         // behind a 4th-order 26-Hz low-pass at 100 Hz, was read as a sinc² decimator whose droop
         // put the fit band's edge at 5.4 Hz, below the peak).
-        let peak_in_band = (0..full.len()).any(|i| x_full[i] <= edge && narrow_excess(&full, i));
+        let peak_in_band = (0..full.len()).any(|i| x_full[i] <= edge && excess[i]);
         if delta > DECIMATOR_REFUTED_BIC || peak_in_band {
             without
         } else {
@@ -858,11 +857,11 @@ pub fn detect_bandwidth(
         None => return None,
     };
     let shaped_edge = lowpass.edge_hz(BAND_BIAS);
-    let checked = checked_edge(&full, &x_full, opts, mask, shaped_edge);
+    let checked = checked_edge(&full, &x_full, &excess, opts, mask, shaped_edge);
     // Where the data moved the edge down, the filter acts lower than its fitted shape says: the
     // Allan cut moves up by the same factor (not for a line the edge steps below).
     let tau_scale = shaped_edge / checked;
-    let fit_max_freq_hz = below_edge_line(&full, &x_full, checked);
+    let fit_max_freq_hz = below_edge_line(&excess, &x_full, checked);
     // The shortest τ after the last one the filter biases beyond the rule.
     let mut sorted: Vec<f64> = taus_s.iter().copied().filter(|t| *t > 0.0).collect();
     sorted.sort_by(f64::total_cmp);
@@ -918,8 +917,7 @@ const LINE_EDGE_MARGIN: f64 = 1.1;
 /// line wanders ±1.5 Hz, an edge at 48 Hz left the skirt in the band's top, which the spectrum
 /// fit took for quantisation noise rising as f², a Gauss–Markov process made up the rest, and N
 /// came out 14–17 % low.
-fn below_edge_line(full: &Problem, x: &[f64], edge: f64) -> f64 {
-    let excess: Vec<bool> = (0..x.len()).map(|i| narrow_excess(full, i)).collect();
+fn below_edge_line(excess: &[bool], x: &[f64], edge: f64) -> f64 {
     let mut i = 0;
     while i < x.len() {
         if !excess[i] {
@@ -951,9 +949,15 @@ const EDGE_DEFICIT_Z: f64 = -3.5;
 /// bands beside it "in deficit", and walked the edge down from 21.6 Hz to 12.6 Hz, below the
 /// peak; its skirt, left in the band, then passed for a Gauss–Markov process and a cascade of
 /// slow effects followed.
-fn checked_edge(full: &Problem, x: &[f64], opts: &FitOptions, mask: Mask, edge: f64) -> f64 {
+fn checked_edge(
+    full: &Problem,
+    x: &[f64],
+    excess: &[bool],
+    opts: &FitOptions,
+    mask: Mask,
+    edge: f64,
+) -> f64 {
     let mut edge = edge;
-    let excess: Vec<bool> = (0..x.len()).map(|i| narrow_excess(full, i)).collect();
     for _ in 0..20 {
         let below: Vec<usize> = (0..x.len())
             .filter(|&i| x[i] <= edge && !excess[i])
@@ -1113,13 +1117,15 @@ mod tests {
             form: FilterForm::Digital { rate_hz: fs },
             decimator: Some(dec),
         };
-        let plain = LowPass {
-            decimator: None,
-            ..lp
+        // The low-pass's part from the simulator's biquad sections (an independent
+        // implementation); the decimator's from its own test against the images' sum.
+        let spec = crate::sim::LowPassSpec {
+            corner_hz: 250.0,
+            order: 2,
         };
         for f in [0.0, 30.0, 120.0, 250.0, 400.0] {
-            let want = dec.power_gain(f, fs) * plain.power_gain(f);
-            assert!((lp.power_gain(f) - want).abs() < 1e-15, "{f}");
+            let want = dec.power_gain(f, fs) * crate::sim::lowpass_power_gain(&spec, fs, f);
+            assert!((lp.power_gain(f) - want).abs() < 1e-9, "{f}");
         }
         let edge = lp.edge_hz(BAND_BIAS);
         assert!(

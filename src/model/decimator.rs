@@ -81,16 +81,6 @@ impl Decimator {
             .sum();
         g.max(0.0)
     }
-
-    /// "sinc³" and, for a finite factor, "↓4".
-    pub fn describe(&self) -> String {
-        let sup = ["⁰", "¹", "²", "³", "⁴", "⁵"];
-        let k = sup[self.stages as usize];
-        match self.factor {
-            Some(d) => format!("sinc{k} decimator (CIC, ↓{d})"),
-            None => format!("sinc{k} decimator (CIC)"),
-        }
-    }
 }
 
 /// h = box_D^{*k}/D^k: k moving averages of D samples in cascade (sums to 1).

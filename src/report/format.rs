@@ -28,12 +28,20 @@ pub fn sig4(v: f64) -> String {
 /// (CIC) then low-pass at 250.0 Hz (order 2)", "sinc³ decimator (CIC), half power at 266.0 Hz".
 pub fn lowpass_text(lp: &crate::model::LowPass) -> String {
     let corner = sig4(lp.corner_hz);
+    // "sinc³ decimator (CIC, ↓4)", or without the factor where it is large.
+    let decimator = |d: crate::model::Decimator| {
+        let k = ["⁰", "¹", "²", "³", "⁴", "⁵"][d.stages as usize];
+        match d.factor {
+            Some(f) => format!("sinc{k} decimator (CIC, ↓{f})"),
+            None => format!("sinc{k} decimator (CIC)"),
+        }
+    };
     match (lp.decimator, lp.order) {
         (None, order) => format!("sensor low-pass at {corner} Hz (order {order})"),
-        (Some(d), 0) => format!("{}, half power at {corner} Hz", d.describe()),
+        (Some(d), 0) => format!("{}, half power at {corner} Hz", decimator(d)),
         (Some(d), order) => format!(
             "{} then low-pass at {corner} Hz (order {order})",
-            d.describe()
+            decimator(d)
         ),
     }
 }
