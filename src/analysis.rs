@@ -155,6 +155,7 @@ fn grid_quantisation(a: &mut ChannelAnalysis, step: f64, rate_hz: f64) {
             t.value = q;
             t.lo = t.lo.min(q);
             t.hi = t.hi.max(q);
+            t.one_sigma = (t.one_sigma.0.min(q), t.one_sigma.1.max(q));
         }
     }
 }
@@ -166,17 +167,18 @@ fn grid_quantisation(a: &mut ChannelAnalysis, step: f64, rate_hz: f64) {
 /// ±2 % interval that excluded it (the correlated error's +5 % excess at 10–20 Hz), the Allan
 /// fit's 0.82–1.11× with a wide one (its shortest τ cut at the edge). The hull covers both.
 fn span_both_fits(a: &mut ChannelAnalysis, term: Term) {
-    let fits: Vec<(f64, f64)> = [a.allan_fit(), a.spectrum_fit()]
+    let fits: Vec<_> = [a.allan_fit(), a.spectrum_fit()]
         .into_iter()
         .flatten()
-        .filter_map(|f| f.get(term).map(|e| (e.lo, e.hi)))
+        .filter_map(|f| f.get(term).map(|e| (e.lo, e.hi, e.one_sigma)))
         .collect();
     if fits.len() < 2 {
         return;
     }
     if let Some(t) = a.combined.terms.iter_mut().find(|t| t.term == term) {
-        for (lo, hi) in fits {
+        for (lo, hi, (lo1, hi1)) in fits {
             (t.lo, t.hi) = (t.lo.min(lo), t.hi.max(hi));
+            t.one_sigma = (t.one_sigma.0.min(lo1), t.one_sigma.1.max(hi1));
         }
         t.hull = true;
     }
@@ -263,7 +265,8 @@ fn bound_dropped_ramp(a: &mut ChannelAnalysis) {
         let limit = crate::model::UpperLimit {
             term: r,
             upper,
-            beside_kept: upper,
+            beside_kept: test.ramp.abs() + test.se,
+            one_sigma: test.ramp.abs() + test.se,
         };
         fit.upper_limits.push(limit);
         // The combined result was made from the fits before this bound existed: it takes the

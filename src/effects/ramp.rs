@@ -115,16 +115,14 @@ pub fn test_ramp(y: &[f64], fs: f64, model: &NoiseFit) -> Option<RampTest> {
 pub fn ramp_null_coefficients(fit: &NoiseFit) -> Coefficients {
     let mut c = ramp_free_coefficients(fit);
     if let Some(k) = fit.get(Term::RateRandomWalk) {
-        c.set(Term::RateRandomWalk, one_sigma_upper(fit, k));
+        c.set(Term::RateRandomWalk, one_sigma_upper(k));
     }
     c
 }
 
-/// The upper end of `e`'s one-sigma interval, from its interval at `fit`'s confidence (the
-/// distance to the upper end over its z).
-pub fn one_sigma_upper(fit: &NoiseFit, e: &TermEstimate) -> f64 {
-    let z = crate::stats::norm_isf((1.0 - fit.confidence) / 2.0);
-    e.value + (e.hi - e.value).max(0.0) / z
+/// The upper end of `e`'s one-sigma interval.
+pub fn one_sigma_upper(e: &TermEstimate) -> f64 {
+    e.one_sigma.1
 }
 
 /// The ramp of `y` (at `fs`) under the one-sided noise `density` (without a ramp; for a model
@@ -201,10 +199,11 @@ pub fn widen_ramp(fit: &mut NoiseFit, test: &RampTest) {
     let z = crate::stats::norm_isf((1.0 - fit.confidence) / 2.0);
     let r = test.ramp.abs();
     let (lo, hi) = ((r - z * test.se).max(0.0), r + z * test.se);
+    let one_sigma = ((r - test.se).max(0.0), r + test.se);
     if let Some(e) = fit.estimates.iter_mut().find(|e| e.term == Term::RateRamp) {
-        let undetermined = e.hi - e.lo > FIT_WIDER * (hi - lo);
+        let undetermined = e.one_sigma.1 - e.one_sigma.0 > FIT_WIDER * (one_sigma.1 - one_sigma.0);
         if undetermined {
-            (e.value, e.lo, e.hi) = (r, lo, hi);
+            (e.value, e.lo, e.hi, e.one_sigma) = (r, lo, hi, one_sigma);
             return;
         }
         if !(lo..=hi).contains(&e.value) {
@@ -212,6 +211,10 @@ pub fn widen_ramp(fit: &mut NoiseFit, test: &RampTest) {
         }
         e.lo = e.lo.min(lo);
         e.hi = e.hi.max(hi);
+        e.one_sigma = (
+            e.one_sigma.0.min(one_sigma.0),
+            e.one_sigma.1.max(one_sigma.1),
+        );
     }
 }
 

@@ -579,6 +579,7 @@ mod tests {
             lo: Some(n * 0.97),
             hi: Some(n * 1.03),
             upper: None,
+            lo_one_sigma: Some(n * 0.97),
             ambiguous: false,
         };
         r.terms[Term::RateRamp.index()].upper = Some(1e-9);
@@ -818,7 +819,9 @@ mod tests {
     /// A value the record does not determine is not scored against the siblings: one whose
     /// interval reaches 0 (the rate ramp of a clean 1 h record, 1000× the others, [0, 1.1×]) and
     /// one its fit could not tell from a neighbouring term; the same value with a tight interval
-    /// is an outlier. Neither enters the fleet's median.
+    /// is an outlier. Neither enters the fleet's median. Determined means at 1σ whatever the
+    /// run's confidence: a value whose 95 % interval reaches 0 and whose 1σ interval does not is
+    /// scored (with the 1σ lower half in its standard error).
     #[test]
     fn undetermined_values_are_not_outliers() {
         let n0 = CoefUnit::DegPerSqrtH.to_si(0.15);
@@ -831,9 +834,16 @@ mod tests {
             lo: Some(0.95 * wild),
             hi: Some(1.05 * wild),
             upper: None,
+            lo_one_sigma: Some(0.97 * wild),
             ambiguous: false,
         };
         records[2].terms[Term::RandomWalk.index()] = TermValues {
+            lo: Some(0.0),
+            hi: Some(1.1 * wild),
+            lo_one_sigma: Some(0.0),
+            ..tight
+        };
+        records[7].terms[Term::RandomWalk.index()] = TermValues {
             lo: Some(0.0),
             hi: Some(1.1 * wild),
             ..tight
@@ -848,6 +858,7 @@ mod tests {
         assert!(!n(2).outlier && n(2).z.is_none(), "{:?}", n(2));
         assert!(!n(5).outlier && n(5).z.is_none(), "{:?}", n(5));
         assert!(n(9).outlier, "{:?}", n(9));
+        assert!(n(7).outlier, "{:?}", n(7));
         let stat = fleet
             .stats
             .iter()

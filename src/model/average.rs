@@ -14,6 +14,7 @@
 
 use super::interval::coefficient_interval;
 use super::{NoiseFit, Term};
+use crate::avar::ONE_SIGMA;
 use crate::stats::{chi2_sf, norm_sf};
 
 /// A rival model's share of the total weight, its own `weight` against the final model's 1.
@@ -81,9 +82,17 @@ pub fn average_with_rival(fit: &NoiseFit, rival: &NoiseFit, weight: f64) -> Nois
             }
         }
         e.zero_share = (z0 + weight * if c1 > 0.0 { z1 } else { 1.0 }) / total;
-        let q = (1.0 - fit.confidence) / 2.0;
-        let (lo, hi) = mixture_interval(&mixture, mean, q);
-        (e.value, e.lo, e.hi, e.edf) = (mean.sqrt(), lo.sqrt(), hi.sqrt(), edf);
+        let at = |p: f64| {
+            let (lo, hi) = mixture_interval(&mixture, mean, (1.0 - p) / 2.0);
+            (lo.sqrt(), hi.sqrt())
+        };
+        let (lo, hi) = at(fit.confidence);
+        e.one_sigma = if fit.confidence == ONE_SIGMA {
+            (lo, hi)
+        } else {
+            at(ONE_SIGMA)
+        };
+        (e.value, e.lo, e.hi, e.edf) = (mean.sqrt(), lo, hi, edf);
     }
     out
 }
@@ -179,6 +188,7 @@ mod tests {
                     lo,
                     hi,
                     edf,
+                    one_sigma: (lo, hi),
                     ambiguous_with: None,
                     zero_share: 0.0,
                 }

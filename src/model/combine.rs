@@ -38,7 +38,7 @@
 
 use serde::Serialize;
 
-use crate::avar::Deviations;
+use crate::avar::{Deviations, ONE_SIGMA};
 use crate::stats::{chi2_quantile, normal_quantile};
 
 use super::{Domain, NoiseFit, Term, TermEstimate, UpperLimit, FLICKER_PLATEAU};
@@ -54,6 +54,10 @@ pub struct CombinedTerm {
     pub source: Domain,
     /// The interval is the hull of both fits' intervals (they disagree).
     pub hull: bool,
+    /// The interval at 1σ whatever the run's confidence (see [`TermEstimate::one_sigma`]): what
+    /// the fleet comparison tests for a value the record determines.
+    #[serde(skip)]
+    pub one_sigma: (f64, f64),
     /// The fit it comes from could not tell this term from a neighbour (see
     /// [`TermEstimate::ambiguous_with`]) and the other fit did not determine it either.
     pub ambiguous_with: Option<Term>,
@@ -490,7 +494,7 @@ fn beyond_bound(value: f64, s_e: f64, upper: f64, p: f64) -> bool {
 
 /// The confidence of the fits' intervals (1σ when neither says).
 fn confidence(a: Option<&NoiseFit>, s: Option<&NoiseFit>) -> f64 {
-    a.or(s).map_or(crate::avar::ONE_SIGMA, |f| f.confidence)
+    a.or(s).map_or(ONE_SIGMA, |f| f.confidence)
 }
 
 /// Standard error of ln(value) from an interval at two-sided probability `p`.
@@ -506,9 +510,12 @@ fn log_sd(e: &TermEstimate, p: f64) -> f64 {
     }
 }
 
+/// The 1σ interval's width over the value (at 1σ whatever the intervals' confidence: the widths
+/// of two χ² intervals of different EDF compare differently at another level, and which fit gives
+/// the value must not depend on it).
 fn relative_width(e: &TermEstimate) -> f64 {
     if e.value > 0.0 {
-        (e.hi - e.lo) / e.value
+        (e.one_sigma.1 - e.one_sigma.0) / e.value
     } else {
         f64::INFINITY
     }
@@ -554,9 +561,11 @@ pub fn combine(
     for term in Term::ALL {
         let a = allan.and_then(|f| f.get(term));
         let s = spectrum.and_then(|f| f.get(term));
+        // The other fit's bound on an absent term: (at the intervals' confidence, at 1σ for the
+        // decisions).
         let upper = |fit: Option<&NoiseFit>| {
             fit.and_then(|f| f.upper_limits.iter().find(|u| u.term == term))
-                .map(|u| u.upper)
+                .map(|u| (u.upper, u.one_sigma))
         };
         let combined = match (a, s) {
             (None, None) => continue,
@@ -570,7 +579,7 @@ pub fn combine(
                 // Against the value, not the interval's lower end: an ambiguous term's interval
                 // reaches down to where the neighbour's model puts it, 0 where that model weighs
                 // more than the lower tail (`select::averaged_interval`), and no bound is below 0.
-                let bound = upper(other).filter(|&u| u < e.value);
+                let bound = upper(other).filter(|&(_, u)| u < e.value);
                 if e.ambiguous_with.is_some()
                     && (bound.is_some() || impossible(term, e.value).is_some())
                     && term != Term::RateRamp
@@ -608,16 +617,16 @@ pub fn combine(
                 // 30-min clean records: 8 of 200 warned "B disagrees" this way.
                 let substituted = other
                     .is_some_and(|f| f.estimates.iter().any(|n| n.ambiguous_with == Some(term)));
-                if let Some(u) = upper(other).filter(|&u| u < e.lo && !blind && !substituted) {
+                let below = |&(_, u): &(f64, f64)| u < e.one_sigma.0 && !blind && !substituted;
+                if let Some((u, u_one_sigma)) = upper(other).filter(below) {
                     let (allan, spectrum) = match domain {
                         Domain::Allan => (e.value, u),
                         Domain::Spectrum => (u, e.value),
                     };
                     // Named only where the difference is significant (p < 0.001) with both
                     // fits' scatter counted (see `beyond_bound`).
-                    let p = confidence(allan_fit, spectrum_fit);
-                    let s_e = log_sd(e, p);
-                    let significant = beyond_bound(e.value, s_e, u, p);
+                    let s_e = log_sd(e, confidence(allan_fit, spectrum_fit));
+                    let significant = beyond_bound(e.value, s_e, u_one_sigma, ONE_SIGMA);
                     // A bound from outside the term's home that its scatter explains is no
                     // reason to doubt the home fit's estimate (a 40-min spectrum bounded B at
                     // 1.9 °/h, its lowest band holding B's excess at a fifth of the floor, beside
@@ -625,7 +634,7 @@ pub fn combine(
                     // unfailable in a screen).
                     let home_keeps_it = home(term) == Some(domain) && e.ambiguous_with.is_none();
                     if significant || !home_keeps_it {
-                        c.lo = 0.0;
+                        (c.lo, c.one_sigma.0) = (0.0, 0.0);
                         c.hull = true;
                     }
                     if e.ambiguous_with.is_none() && significant {
@@ -669,7 +678,9 @@ pub fn combine(
                     (s, Domain::Spectrum)
                 };
                 let mut c = pick(best, domain);
-                if a.hi < s.lo || s.hi < a.lo {
+                // Tested at 1σ whatever the intervals' confidence: the value must not move
+                // with it (`TermEstimate::one_sigma`).
+                if a.one_sigma.1 < s.one_sigma.0 || s.one_sigma.1 < a.one_sigma.0 {
                     // Disagreement: the value from the term's home domain, where its slope regime
                     // is widest (B, K, R at long τ; Q at high frequency).
                     c = match home(term) {
@@ -679,6 +690,10 @@ pub fn combine(
                     };
                     c.lo = a.lo.min(s.lo);
                     c.hi = a.hi.max(s.hi);
+                    c.one_sigma = (
+                        a.one_sigma.0.min(s.one_sigma.0),
+                        a.one_sigma.1.max(s.one_sigma.1),
+                    );
                     c.hull = true;
                     let p = confidence(allan_fit, spectrum_fit);
                     let d = (a.value / s.value).ln().abs()
@@ -699,6 +714,7 @@ pub fn combine(
     for t in &mut terms {
         if let Some(cap) = cap(t.term) {
             t.hi = t.hi.min(cap).max(t.value);
+            t.one_sigma.1 = t.one_sigma.1.min(cap).max(t.value);
         }
         if let Some((allowed, tau_s)) = impossible(t.term, t.value) {
             warnings.push(FitWarning::BeyondAllanCurve {
@@ -713,12 +729,15 @@ pub fn combine(
         .into_iter()
         .filter(|&term| !terms.iter().any(|t| t.term == term))
         .filter_map(|term| {
-            let upper = upper_limit(allan_fit, spectrum_fit, term)?;
-            let upper = cap(term).map_or(upper, |c| upper.min(c));
+            let capped = |u: f64| cap(term).map_or(u, |c| u.min(c));
+            let upper = capped(upper_limit(allan_fit, spectrum_fit, term)?);
+            let one_sigma =
+                upper_limit_at(allan_fit, spectrum_fit, term, true).map_or(upper, capped);
             Some(UpperLimit {
                 term,
                 upper,
-                beside_kept: upper,
+                beside_kept: one_sigma,
+                one_sigma,
             })
         })
         .collect();
@@ -768,7 +787,7 @@ fn complete(fit: Option<&NoiseFit>, other: Option<&NoiseFit>, term: Term) -> boo
         .into_iter()
         .flatten()
         .filter_map(|j| Term::ALL.get(j))
-        .all(|&u| other.get(u).is_none_or(|e| e.lo <= 0.0) || fit.get(u).is_some())
+        .all(|&u| other.get(u).is_none_or(|e| e.one_sigma.0 <= 0.0) || fit.get(u).is_some())
 }
 
 /// The fit whose range covers the term's slope regime widest: B, K and R the Allan variance's
@@ -789,6 +808,7 @@ fn pick(e: &TermEstimate, source: Domain) -> CombinedTerm {
         hi: e.hi,
         source,
         hull: false,
+        one_sigma: e.one_sigma,
         ambiguous_with: e.ambiguous_with,
     }
 }
@@ -1069,14 +1089,27 @@ pub fn upper_limit(
     spectrum: Option<&NoiseFit>,
     term: Term,
 ) -> Option<f64> {
+    upper_limit_at(allan, spectrum, term, false)
+}
+
+/// [`upper_limit`] at the intervals' confidence, or at 1σ where `one_sigma`.
+pub(crate) fn upper_limit_at(
+    allan: Option<&NoiseFit>,
+    spectrum: Option<&NoiseFit>,
+    term: Term,
+    one_sigma: bool,
+) -> Option<f64> {
     let bound = |f: &NoiseFit| {
         f.get(term)
-            .map(|e| e.hi)
+            .map(|e| if one_sigma { e.one_sigma.1 } else { e.hi })
             .or_else(|| {
-                f.upper_limits
-                    .iter()
-                    .find(|u| u.term == term)
-                    .map(|u| u.upper)
+                f.upper_limits.iter().find(|u| u.term == term).map(|u| {
+                    if one_sigma {
+                        u.one_sigma
+                    } else {
+                        u.upper
+                    }
+                })
             })
             .filter(|u| u.is_finite())
     };
@@ -1104,6 +1137,7 @@ mod tests {
             lo: value * (1.0 - rel),
             hi: value * (1.0 + rel),
             edf: 100.0,
+            one_sigma: (value * (1.0 - rel), value * (1.0 + rel)),
             ambiguous_with: None,
             zero_share: 0.0,
         }
@@ -1321,7 +1355,7 @@ mod tests {
     fn the_allan_curve_rules_estimates_out() {
         let dev = white_oadev(9_300);
         let ambiguous = |mut e: TermEstimate| {
-            e.lo = 0.0;
+            (e.lo, e.one_sigma.0) = (0.0, 0.0);
             e.ambiguous_with = Some(Term::BiasInstability);
             e
         };
@@ -1420,7 +1454,7 @@ mod tests {
     #[test]
     fn a_neighbour_down_to_zero_is_not_found() {
         let mut q = est(Term::Quantization, 0.15, 0.5);
-        q.lo = 0.0;
+        (q.lo, q.one_sigma.0) = (0.0, 0.0);
         let a = fit(
             Domain::Allan,
             vec![q, est(Term::RandomWalk, 0.229, 0.025)],
@@ -1444,6 +1478,42 @@ mod tests {
         );
         let c = combine(Some(&a), Some(&s), None);
         assert_eq!(c.get(Term::RandomWalk).unwrap().source, Domain::Allan);
+    }
+
+    /// The choices are made on the 1σ intervals whatever the intervals' confidence: a Q whose
+    /// 95 % interval reaches 0 and whose 1σ interval does not is found (N from the Allan fit that
+    /// kept it), and two N readings whose 1σ intervals miss each other disagree (the value from
+    /// the more precise fit, the hull as interval) though their 95 % intervals overlap. Before,
+    /// the 95 % intervals decided both, and the combined N changed with the level.
+    #[test]
+    fn the_choices_do_not_depend_on_the_intervals_level() {
+        let at_95 = |mut e: TermEstimate, lo: f64, hi: f64| {
+            (e.lo, e.hi) = (lo, hi);
+            e
+        };
+        let q = at_95(est(Term::Quantization, 0.15, 0.5), 0.0, 0.3);
+        let n_allan = at_95(est(Term::RandomWalk, 0.229, 0.025), 0.22, 0.24);
+        let mut a = fit(Domain::Allan, vec![q, n_allan], vec![]);
+        let n_spectrum = at_95(est(Term::RandomWalk, 0.235, 0.005), 0.2326, 0.2374);
+        let mut s = fit(
+            Domain::Spectrum,
+            vec![n_spectrum],
+            vec![(Term::Quantization, 0.13)],
+        );
+        for f in [&mut a, &mut s] {
+            f.confidence = 0.95;
+        }
+        let c = combine(Some(&a), Some(&s), None);
+        let n = c.get(Term::RandomWalk).unwrap();
+        assert_eq!((n.source, n.value), (Domain::Allan, 0.229), "{n:?}");
+        assert!(!n.hull, "{n:?}");
+        // 1σ: [0.223, 0.235] and [0.2397, 0.2503]; 95 %: [0.21, 0.25] and [0.238, 0.252].
+        let n_spectrum = at_95(est(Term::RandomWalk, 0.245, 0.02), 0.238, 0.252);
+        s.estimates = vec![n_spectrum];
+        let c = combine(Some(&a), Some(&s), None);
+        let n = c.get(Term::RandomWalk).unwrap();
+        assert!(n.hull && (n.lo, n.hi) == (0.22, 0.252), "{n:?}");
+        assert_eq!(n.one_sigma, (0.229 * 0.975, 0.245 * 1.02), "{n:?}");
     }
 
     /// K's bound comes from the Allan fit whichever fit kept it: a spectrum that kept K
@@ -1565,7 +1635,7 @@ mod tests {
         assert!(c.warnings.is_empty());
         // The same with its interval down to 0 (the model with B in its place weighs more than
         // the lower tail): still no answer, the bound lies below the value.
-        k.lo = 0.0;
+        (k.lo, k.one_sigma.0) = (0.0, 0.0);
         let s = fit(Domain::Spectrum, vec![k], vec![]);
         let c = combine(Some(&a), Some(&s), None);
         assert!(c.get(Term::RateRandomWalk).is_none(), "{c:?}");

@@ -25,7 +25,7 @@
 //! (within ×/÷ 1.5), the grid is taken as that angle's and nothing is said; where they neither
 //! kept nor excluded it (its upper limit reaches half that value), the warning names both readings.
 
-use super::combine::{upper_limit, Combined, FitWarning};
+use super::combine::{upper_limit_at, Combined, FitWarning};
 use super::result::NoiseFit;
 use super::terms::Term;
 
@@ -51,7 +51,8 @@ pub fn rounding_warning(
     let n = combined.get(Term::RandomWalk)?;
     let rounding_n = step / (12.0 * rate_hz).sqrt();
     let shift = n.value - (n.value.powi(2) - rounding_n.powi(2)).max(0.0).sqrt();
-    let half_width = (n.hi - n.lo) / 2.0;
+    // At 1σ whatever the intervals' confidence: whether to warn must not depend on it.
+    let half_width = (n.one_sigma.1 - n.one_sigma.0) / 2.0;
     if shift.is_nan() || shift <= half_width {
         return None;
     }
@@ -64,7 +65,8 @@ pub fn rounding_warning(
         }
     }
     let angle_possible = combined.get(Term::Quantization).is_none()
-        && upper_limit(allan, spectrum, Term::Quantization).is_some_and(|u| u >= 0.5 * angle_q);
+        && upper_limit_at(allan, spectrum, Term::Quantization, true)
+            .is_some_and(|u| u >= 0.5 * angle_q);
     let sigma_out = n.value * rate_hz.sqrt();
     let steps_per_sigma = step / sigma_out;
     let without = |x: f64| (x.powi(2) - rounding_n.powi(2)).max(0.0).sqrt();
@@ -135,6 +137,7 @@ mod tests {
             hi: value * (1.0 + rel),
             source: Domain::Allan,
             hull: false,
+            one_sigma: (value * (1.0 - rel), value * (1.0 + rel)),
             ambiguous_with: None,
         };
         let mut terms = vec![term(Term::RandomWalk, n)];

@@ -580,15 +580,16 @@ fn noise_density<'a>(
         _ => ramp_free_coefficients(fit),
     };
     if let (NoiseK::Guarded, Some(e)) = (k, undetermined_k(fit)) {
-        c.set(Term::RateRandomWalk, one_sigma_upper(fit, e));
+        c.set(Term::RateRandomWalk, one_sigma_upper(e));
     }
     move |f| density_of(&c, fit, stochastic, f, fs)
 }
 
-/// K where `fit` kept it with an interval down to 0: the record does not determine it, and
+/// K where `fit` kept it with an interval (at 1σ) down to 0: the record does not determine it, and
 /// [`NoiseK::Guarded`] raises it.
 fn undetermined_k(fit: &NoiseFit) -> Option<&crate::model::TermEstimate> {
-    fit.get(Term::RateRandomWalk).filter(|e| e.lo <= 0.0)
+    fit.get(Term::RateRandomWalk)
+        .filter(|e| e.one_sigma.0 <= 0.0)
 }
 
 /// A candidate for this round: its ΔBIC, what it would add, and the evidence.
@@ -690,7 +691,7 @@ fn k_standing_for_a_coupling(
     }
     let allan = state.allan.as_ref()?;
     let k = allan.get(Term::RateRandomWalk)?;
-    if k.lo <= 0.0 || k.lo.is_nan() {
+    if k.one_sigma.0 <= 0.0 || k.one_sigma.0.is_nan() {
         return None;
     }
     let k_value = k.value;
@@ -704,7 +705,7 @@ fn k_standing_for_a_coupling(
             .iter_mut()
             .find(|e| e.term == Term::RateRandomWalk)
         {
-            e.lo = 0.0;
+            (e.lo, e.one_sigma.0) = (0.0, 0.0);
         }
     }
     Some(KOrCoupling {
@@ -740,7 +741,9 @@ fn coupling_taking_k<'a>(
         let refit = slow_candidates::allan_without(state, fs, cfg, &|v: &mut Vec<f64>| {
             remove_coupling(v, a.samples, &c)
         })?;
-        let k_gone = refit.get(Term::RateRandomWalk).is_none_or(|e| e.lo <= 0.0);
+        let k_gone = refit
+            .get(Term::RateRandomWalk)
+            .is_none_or(|e| e.one_sigma.0 <= 0.0);
         k_gone.then_some((a.name, c))
     })
 }

@@ -402,14 +402,18 @@ pub(super) fn gauss_markov_candidate(
     // The base terms trade with the process too (a longer Tc takes more of K's low-frequency
     // power): each one's interval, in each fit, joins its conditional intervals over the same
     // profile interval of Tc, as σ's does.
+    // The 1σ intervals the decisions use (`TermEstimate::one_sigma`) join over the Tc within 1
+    // (the χ²₁ quantile at 1σ) whatever the confidence.
     let (mut allan, mut spectrum) = (best.allan.clone(), best.spectrum.clone());
     for c in profile
         .iter()
-        .filter(|c| c.delta <= restricted_best.delta + q)
+        .filter(|c| c.delta <= restricted_best.delta + q.max(1.0))
     {
-        join_intervals(&mut allan, Some(&c.allan));
+        let at = |threshold: f64| c.delta <= restricted_best.delta + threshold;
+        let (reported, one_sigma) = (at(q), at(1.0));
+        join_intervals(&mut allan, Some(&c.allan), reported, one_sigma);
         if let Some(f) = spectrum.as_mut() {
-            join_intervals(f, c.spectrum.as_ref());
+            join_intervals(f, c.spectrum.as_ref(), reported, one_sigma);
         }
     }
     let where_ = state
@@ -450,14 +454,23 @@ pub(super) fn gauss_markov_candidate(
 }
 
 /// Each of `fit`'s term intervals widened to take in `other`'s interval of the same term (a term
-/// `other` lacks leaves it as it is).
-fn join_intervals(fit: &mut NoiseFit, other: Option<&NoiseFit>) {
+/// `other` lacks leaves it as it is): the reported ones where `reported`, the 1σ ones where
+/// `one_sigma`.
+fn join_intervals(fit: &mut NoiseFit, other: Option<&NoiseFit>, reported: bool, one_sigma: bool) {
     let Some(other) = other else {
         return;
     };
     for e in &mut fit.estimates {
         if let Some(o) = other.get(e.term) {
-            (e.lo, e.hi) = (e.lo.min(o.lo), e.hi.max(o.hi));
+            if reported {
+                (e.lo, e.hi) = (e.lo.min(o.lo), e.hi.max(o.hi));
+            }
+            if one_sigma {
+                e.one_sigma = (
+                    e.one_sigma.0.min(o.one_sigma.0),
+                    e.one_sigma.1.max(o.one_sigma.1),
+                );
+            }
         }
     }
 }
