@@ -275,6 +275,7 @@ fn cases() -> Vec<Case> {
             f0_hi,
             q_lo,
             q_hi,
+            ..
         } => {
             let r = &t.resonances[0];
             Some(vec![

@@ -63,6 +63,8 @@ struct Tally {
     /// Resonances found: how often the 1σ intervals of f₀, Q and σ covered the planted values, and
     /// the ratios of the estimates to them.
     resonances_found: usize,
+    /// Of those, read in the band-pass form (no plateau below f₀).
+    band_pass_resonances: usize,
     /// Couplings found: how often the 1σ interval of the coefficient covered the planted one, and
     /// the ratios of the estimates to it.
     couplings_found: usize,
@@ -252,6 +254,14 @@ fn study_cases() -> Vec<Case> {
             name: "resonance 8 Hz, Q 20, σ 1.5e-4 rad/s (peak ≈ 30× floor)".into(),
             filtered: false,
             extra: json!({ "resonances": [{ "f0_hz": RESONANCE.0, "q": RESONANCE.1, "sigma": RESONANCE.2 }] }),
+            expect: Some("resonance"),
+            seconds: None,
+            rate: None,
+        },
+        Case {
+            name: "band-pass resonance 8 Hz, Q 20, σ 4.6e-4 rad/s (its rate: no plateau, where the low-pass form's would be 44 % of the floor)".into(),
+            filtered: false,
+            extra: json!({ "resonances": [{ "f0_hz": RESONANCE.0, "q": RESONANCE.1, "sigma": 4.6e-4, "form": "band_pass" }] }),
             expect: Some("resonance"),
             seconds: None,
             rate: None,
@@ -709,10 +719,15 @@ fn main() {
                     q_lo,
                     q_hi,
                     sigma,
+                    form,
+                    ..
                 } = &s.effect
                 {
                     if case.expect == Some("resonance") {
                         tally.resonances_found += 1;
+                        tally.band_pass_resonances += usize::from(
+                            *form == imunoise::effects::shapes::ResonanceForm::BandPass,
+                        );
                         // The case's own resonance (the sweep plants other σ than the study's).
                         let planted = &case.extra["resonances"][0];
                         let (f0_t, q_t, s_t) = (
@@ -1007,8 +1022,16 @@ fn main() {
             } else {
                 "resonances found"
             };
+            let forms = if tally.resonances_from_bands {
+                String::new()
+            } else {
+                format!(
+                    " ({} read in the band-pass form)",
+                    tally.band_pass_resonances
+                )
+            };
             edge_notes.push(format!(
-                "{}: of {} {what}, the 1σ interval covers f₀ in {}, Q in {}, σ in {}; median ratios to the truth f₀ {:.4}, Q {:.3}, σ {:.3}.",
+                "{}: of {} {what}{forms}, the 1σ interval covers f₀ in {}, Q in {}, σ in {}; median ratios to the truth f₀ {:.4}, Q {:.3}, σ {:.3}.",
                 case.name,
                 tally.resonances_found,
                 pct(tally.resonance_covered[0], tally.resonances_found),

@@ -3,7 +3,7 @@
 
 use std::f64::consts::PI;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::model::{EffectShape, GaussMarkov};
 
@@ -49,15 +49,47 @@ fn sinc2(x: f64) -> f64 {
     }
 }
 
+/// Which output of a second-order system driven by white noise the sensor sees: its spectrum
+/// below the peak.
+///
+/// Why two: the displacement-like output ([`ResonanceForm::LowPass`], what a mount transmits of a
+/// broadband base excitation) keeps a plateau below f₀ at 1/q² of its peak, and for a strong
+/// resonance of moderate Q that plateau is white noise of the same order as the sensor's own: a
+/// flight controller's accelerometers on a frame resonance of Q 18 at 68 Hz (σ 0.03 m/s², 70
+/// µg/√Hz sensor) had N read 0.65–0.70× the truth, the plateau taking the rest, with intervals
+/// excluding it. The velocity-like output ([`ResonanceForm::BandPass`], a gyro's rate of a
+/// torsional mode, or any mode excited by narrowband forcing) has no plateau: it falls as f²
+/// below the peak. The data choose (same parameters; the loop compares the two at the best f₀
+/// and Q of the first and searches again with the second where it fits better).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ResonanceForm {
+    /// ∝ f₀⁴/((f₀² − f²)² + (f·f₀/q)²): unit gain at 0 Hz, q² at the peak.
+    #[default]
+    LowPass,
+    /// ∝ (f·f₀/q)²/((f₀² − f²)² + (f·f₀/q)²): 0 at 0 Hz, 1 at the peak.
+    BandPass,
+}
+
+impl ResonanceForm {
+    pub fn name(self) -> &'static str {
+        match self {
+            ResonanceForm::LowPass => "low-pass",
+            ResonanceForm::BandPass => "band-pass",
+        }
+    }
+}
+
 /// A narrowband resonance: white noise through a second-order system of centre `f0_hz` and
-/// quality factor `q` (half-power width ≈ f0/q), per unit variance. Its two-sided spectrum is
-/// ∝ f0⁴/((f0² − f²)² + (f·f0/q)²); the normalisation and the Allan variance (through
-/// σ²(τ) = 4∫S(f)·sin⁴(πfτ)/(πfτ)² df) are integrated numerically on a grid that resolves the
-/// peak.
+/// quality factor `q` (half-power width ≈ f0/q), per unit variance, seen in `form`. Its two-sided
+/// spectrum is ∝ f0⁴/((f0² − f²)² + (f·f0/q)²) (low-pass) or (f·f0/q)²/((f0² − f²)² + (f·f0/q)²)
+/// (band-pass); the normalisation and the Allan variance (through σ²(τ) = 4∫S(f)·sin⁴(πfτ)/(πfτ)²
+/// df) are integrated numerically on a grid that resolves the peak.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Resonance {
     pub f0_hz: f64,
     pub q: f64,
+    pub form: ResonanceForm,
     #[serde(skip)]
     grid: Vec<(f64, f64)>,
     #[serde(skip)]
@@ -65,8 +97,13 @@ pub struct Resonance {
 }
 
 impl Resonance {
-    /// The shape for samples at `rate_hz` (the integrals run to Nyquist).
+    /// The low-pass shape for samples at `rate_hz` (the integrals run to Nyquist).
     pub fn new(f0_hz: f64, q: f64, rate_hz: f64) -> Resonance {
+        Resonance::with_form(f0_hz, q, ResonanceForm::LowPass, rate_hz)
+    }
+
+    /// The shape in `form` for samples at `rate_hz`.
+    pub fn with_form(f0_hz: f64, q: f64, form: ResonanceForm, rate_hz: f64) -> Resonance {
         let nyquist = rate_hz / 2.0;
         let width = f0_hz / q;
         // Log-spaced over the band, dense (0.02 widths) within ±20 widths of the centre.
@@ -77,7 +114,7 @@ impl Resonance {
         f.retain(|&x| x > 0.0 && x <= nyquist);
         f.sort_by(f64::total_cmp);
         f.dedup();
-        let raw = |x: f64| Resonance::response(f0_hz, q, x);
+        let raw = |x: f64| Resonance::response(f0_hz, q, form, x);
         // Trapezoid weights.
         let grid: Vec<(f64, f64)> = (0..f.len())
             .map(|i| {
@@ -94,15 +131,21 @@ impl Resonance {
         Resonance {
             f0_hz,
             q,
+            form,
             grid,
             norm: 1.0 / (2.0 * one_sided),
         }
     }
 
-    /// |H(f)|² of the second-order system, unnormalised.
-    fn response(f0_hz: f64, q: f64, x: f64) -> f64 {
+    /// |H(f)|² of the second-order system's output in `form`, unnormalised.
+    fn response(f0_hz: f64, q: f64, form: ResonanceForm, x: f64) -> f64 {
         let d = f0_hz * f0_hz - x * x;
-        f0_hz.powi(4) / (d * d + (x * f0_hz / q).powi(2))
+        let damping = (x * f0_hz / q).powi(2);
+        let numerator = match form {
+            ResonanceForm::LowPass => f0_hz.powi(4),
+            ResonanceForm::BandPass => damping,
+        };
+        numerator / (d * d + damping)
     }
 }
 
@@ -118,8 +161,16 @@ impl EffectShape for Resonance {
                 })
                 .sum::<f64>()
     }
-    fn psd_unit(&self, f_hz: f64, _rate_hz: f64) -> f64 {
-        self.norm * Resonance::response(self.f0_hz, self.q, f_hz)
+    fn psd_unit(&self, f_hz: f64, rate_hz: f64) -> f64 {
+        let h2 = self.norm * Resonance::response(self.f0_hz, self.q, self.form, f_hz);
+        match self.form {
+            // A displacement's spectrum falls as f⁻⁴ above the peak: point samples of it fold
+            // nothing, as the sampled process assumes.
+            ResonanceForm::LowPass => h2,
+            // A rate's falls only as f⁻²: its samples are taken as interval means (a sensor's
+            // own averaging or anti-alias filter), through sinc².
+            ResonanceForm::BandPass => h2 * sinc2(f_hz / rate_hz),
+        }
     }
     fn alpha_at(&self, _tau_s: f64) -> i8 {
         0
@@ -150,6 +201,32 @@ mod tests {
         // Far beyond the resonance it behaves as white noise of density S(0) = norm: 2S(0)·... ∝ 1/τ.
         let (a, b) = (r.avar_unit(100.0, 200.0), r.avar_unit(1000.0, 200.0));
         assert!((a / b - 10.0).abs() < 0.5, "{a} {b}");
+    }
+
+    /// The band-pass form integrates to its unit variance, peaks at f₀ and has no plateau: below
+    /// the peak it falls as f², where the low-pass form stays at 1/q² of its peak.
+    #[test]
+    fn the_band_pass_resonance_has_no_plateau() {
+        let (f0, q, fs) = (5.0, 10.0, 200.0);
+        let r = Resonance::with_form(f0, q, ResonanceForm::BandPass, fs);
+        let mut total = 0.0;
+        let df = 1e-3;
+        let mut f = df / 2.0;
+        while f < 100.0 {
+            // The continuous process's spectrum: without the sampling's sinc².
+            total += 2.0 * r.psd_unit(f, fs) / sinc2(f / fs) * df;
+            f += df;
+        }
+        assert!((total - 1.0).abs() < 2e-3, "{total}");
+        let peak = r.psd_unit(f0, fs);
+        assert!(peak > r.psd_unit(0.98 * f0, fs) && peak > r.psd_unit(1.02 * f0, fs));
+        let (a, b) = (r.psd_unit(0.05, fs), r.psd_unit(0.1, fs));
+        assert!((b / a - 4.0).abs() < 0.01, "{a} {b}");
+        let low = Resonance::new(f0, q, fs);
+        let plateau = low.psd_unit(0.05, fs) / low.psd_unit(f0, fs);
+        assert!((plateau * q * q - 1.0).abs() < 1e-3, "{plateau}");
+        // (f·f₀/q)²/f₀⁴ = 1.6e-7 at 0.02 Hz, where the low-pass form stays at 1/q² = 0.01.
+        assert!(r.psd_unit(0.02, fs) / peak < 2e-7);
     }
 
     /// The Gauss–Markov shape integrates to its unit variance.

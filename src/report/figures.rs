@@ -62,9 +62,13 @@ fn stochastic(
             ),
         )),
         Effect::Resonance {
-            f0_hz, q, sigma, ..
+            f0_hz,
+            q,
+            form,
+            sigma,
+            ..
         } => Some((
-            Box::new(Resonance::new(*f0_hz, *q, fs)) as Box<dyn EffectShape>,
+            Box::new(Resonance::with_form(*f0_hz, *q, *form, fs)) as Box<dyn EffectShape>,
             sigma.value,
             format!(
                 "resonance {f0_hz:.3} Hz, Q = {q:.1}, σ = {}",

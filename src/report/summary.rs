@@ -7,6 +7,7 @@ use std::fmt::Write;
 
 use crate::analysis::ChannelAnalysis;
 use crate::effects::ramp::{RampAction, RampDecision, TestedSeries};
+use crate::effects::shapes::ResonanceForm;
 use crate::effects::slow::DriftShape;
 use crate::effects::{Effect, ErrorFigures};
 use crate::io::Recording;
@@ -555,10 +556,15 @@ pub fn effect_line(e: &Effect, units: &EffectUnits) -> String {
             q,
             q_lo,
             q_hi,
+            form,
             sigma,
         } => format!(
-            "resonance at {f0_hz:.3} Hz [{f0_lo:.3}, {f0_hi:.3}], Q {q:.1} [{q_lo:.1}, {q_hi:.1}], σ {}",
-            v.interval(sigma.value, sigma.lo, sigma.hi)
+            "resonance at {f0_hz:.3} Hz [{f0_lo:.3}, {f0_hi:.3}], Q {q:.1} [{q_lo:.1}, {q_hi:.1}], σ {} ({})",
+            v.interval(sigma.value, sigma.lo, sigma.hi),
+            match form {
+                ResonanceForm::LowPass => "low-pass: a plateau below f₀",
+                ResonanceForm::BandPass => "band-pass: no plateau below f₀",
+            }
         ),
         Effect::GaussMarkov {
             tc_s,
@@ -945,6 +951,7 @@ mod tests {
             q,
             q_lo: q * 0.9,
             q_hi: q * 1.1,
+            form: ResonanceForm::LowPass,
             sigma: crate::model::EffectEstimate {
                 value: 1e-3,
                 lo: 9e-4,

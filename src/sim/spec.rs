@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::effects::shapes::ResonanceForm;
 use crate::model::{Coefficients, GaussMarkov, Sensor};
 
 use super::SimError;
@@ -159,6 +160,11 @@ pub struct ResonanceSpec {
     pub q: f64,
     /// Standard deviation of the process (rad/s or m/s²).
     pub sigma: f64,
+    /// Which output of the resonator: `low_pass` (the default: the displacement-like state,
+    /// a plateau at 1/q² of the peak below f₀) or `band_pass` (its rate, σ·x′/(ω₀σₓ): no
+    /// plateau, ∝ f² below the peak), as [`crate::effects::shapes::ResonanceForm`].
+    #[serde(default)]
+    pub form: ResonanceForm,
 }
 
 /// A deterministic bias drift over the record of length T (s): an exponential settling

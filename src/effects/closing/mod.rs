@@ -52,7 +52,7 @@ use super::ramp::{
 };
 use super::regression::{IncrementModel, MAX_INCREMENTS};
 use super::residuals::{diagnose, Diagnostics};
-use super::shapes::{GaussMarkov1, Resonance};
+use super::shapes::{GaussMarkov1, Resonance, ResonanceForm};
 use super::shift::{step_from_search, step_under_model};
 use super::slow::{
     coupling_under_model, drift_in, drift_under_model, remove_drift, Drift, DriftShapes,
@@ -192,6 +192,8 @@ pub enum Effect {
         /// Profile-likelihood interval of Q.
         q_lo: f64,
         q_hi: f64,
+        /// Which output of the resonator the spectrum shows below its peak (a plateau or none).
+        form: ResonanceForm,
         sigma: EffectEstimate,
     },
     /// A first-order Gauss–Markov process: correlation time with its profile-likelihood interval,

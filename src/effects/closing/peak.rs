@@ -323,6 +323,7 @@ mod tests {
                 f0_hz: 18.0,
                 q: 30.0,
                 sigma,
+                form: Default::default(),
             };
             let mut cover = [0usize; 3];
             for seed in 0..records {

@@ -171,52 +171,63 @@ pub(super) fn resonance_candidate(
         e.freq_hz - reach,
         e.freq_hz + reach,
     );
-    let fit_with = |f0: f64, q: f64, binned: &BinnedPsd, opts: &FitOptions| {
+    let fit_with = |f0: f64, q: f64, form: ResonanceForm, binned: &BinnedPsd, opts: &FitOptions| {
         if !(f0 > 0.0 && f0 < nyquist) {
             return (f64::INFINITY, None);
         }
-        let shape = Resonance::new(f0, q, fs);
+        let shape = Resonance::with_form(f0, q, form, fs);
         let spectrum = fit_psd_with(&state.psd, binned, opts, Some(&shape)).ok();
         (spectrum.as_ref().map_or(f64::INFINITY, score), spectrum)
     };
-    let fit_at = |f0: f64, q: f64| fit_with(f0, q, &resolved, &profile_opts);
-    let mut q_points: Vec<(f64, f64, Option<EffectEstimate>)> = Vec::new();
-    let mut f_points: Vec<(f64, f64, Option<EffectEstimate>)> = Vec::new();
+    let fit_at =
+        |f0: f64, q: f64, form: ResonanceForm| fit_with(f0, q, form, &resolved, &profile_opts);
     let (lq_lo, lq_hi) = ((q0 / 8.0).max(0.5).ln(), (q0 * 8.0).min(1e4).ln());
-    let mut f0 = e.freq_hz;
-    let by_q = |f0: f64, pts: &mut Vec<(f64, f64, Option<EffectEstimate>)>| {
-        golden(
-            &mut |lq: f64| {
-                let (sc, fit) = fit_at(f0, lq.exp());
-                pts.push((lq.exp(), sc, fit.and_then(|f| f.effect)));
-                sc
-            },
-            lq_lo,
-            lq_hi,
-            18,
-        )
+    type Points = Vec<(f64, f64, Option<EffectEstimate>)>;
+    // Q at the excess's centre, f₀ at that Q, Q again at that f₀: (f₀, Q, score, Q's points at
+    // the final f₀).
+    let search = |form: ResonanceForm| -> (f64, f64, f64, Points) {
+        let by_q = |f0: f64, pts: &mut Points| {
+            golden(
+                &mut |lq: f64| {
+                    let (sc, fit) = fit_at(f0, lq.exp(), form);
+                    pts.push((lq.exp(), sc, fit.and_then(|f| f.effect)));
+                    sc
+                },
+                lq_lo,
+                lq_hi,
+                18,
+            )
+        };
+        let (lq, _) = by_q(e.freq_hz, &mut Vec::new());
+        let half_width = e.freq_hz / lq.exp();
+        let (f0, _) = golden(
+            &mut |f: f64| fit_at(f, lq.exp(), form).0,
+            e.freq_hz - half_width,
+            e.freq_hz + half_width,
+            16,
+        );
+        let mut q_points = Vec::new();
+        let (lq, best) = by_q(f0, &mut q_points);
+        (f0, lq.exp(), best, q_points)
     };
-    let (lq, _) = by_q(f0, &mut Vec::new());
-    let mut q = lq.exp();
-    let half_width = f0 / q;
-    (f0, _) = golden(
-        &mut |f: f64| {
-            let (sc, fit) = fit_at(f, q);
-            f_points.push((f, sc, fit.and_then(|f| f.effect)));
-            sc
-        },
-        f0 - half_width,
-        f0 + half_width,
-        16,
-    );
-    let (lq, best) = by_q(f0, &mut q_points);
-    q = lq.exp();
+    // The low-pass form first; the band-pass one searched too where it fits better at that
+    // optimum (a plateau the data do not hold), and kept where its own optimum is better.
+    let mut form = ResonanceForm::LowPass;
+    let (mut f0, mut q, mut best, mut q_points) = search(form);
+    if fit_at(f0, q, ResonanceForm::BandPass).0 < best {
+        let other = search(ResonanceForm::BandPass);
+        if other.2 < best {
+            form = ResonanceForm::BandPass;
+            (f0, q, best, q_points) = other;
+        }
+    }
+    let fit_at = |f0: f64, q: f64| fit_at(f0, q, form);
+    let mut f_points: Points = Vec::new();
     // Profile grids around the optimum, for the intervals: f₀ at the final Q only (the golden
     // search's points were at the first Q, a slice offset by the change of Q, which made the
     // optimum an isolated point of the profile), a 24th of a half-power width apart within half a
     // width and coarser beyond; Q a twelfth of a decade apart (its golden-search points at the
     // final f₀ stay).
-    f_points.clear();
     let f_steps: Vec<f64> = (-12..=12)
         .map(|k| f64::from(k) / 24.0)
         .chain([-2.0, -1.5, -1.0, -0.75, 0.75, 1.0, 1.5, 2.0])
@@ -246,8 +257,8 @@ pub(super) fn resonance_candidate(
         .chain(&f_points)
         .map(|p| p.1)
         .fold(best, f64::min);
-    let (_, spectrum) = fit_with(f0, q, &state.binned, &cfg.fit);
-    let shape = Resonance::new(f0, q, fs);
+    let (_, spectrum) = fit_with(f0, q, form, &state.binned, &cfg.fit);
+    let shape = Resonance::with_form(f0, q, form, fs);
     let allan = fit_avar_with(&state.dev, &cfg.fit, Some(&shape)).ok();
     let (ds, da) = stochastic_delta(state, allan.as_ref(), spectrum.as_ref(), 2.0)?;
     let mut sigma = spectrum.as_ref()?.effect?;
@@ -279,6 +290,7 @@ pub(super) fn resonance_candidate(
             q,
             q_lo: q_lo.min(q),
             q_hi: q_hi.max(q),
+            form,
             sigma,
         },
         apply: Apply::Model(Box::new((Stochastic::Resonance(shape), allan, spectrum))),
