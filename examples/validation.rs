@@ -63,7 +63,9 @@ struct Tally {
     /// Resonances found: how often the 1σ intervals of f₀, Q and σ covered the planted values, and
     /// the ratios of the estimates to them.
     resonances_found: usize,
-    /// Of those, read in the band-pass form (no plateau below f₀).
+    /// Of those, the ones found inside the fit band (a resonance effect, not a peak beyond the
+    /// band), and how many of those were read in the band-pass form (no plateau below f₀).
+    in_band_resonances: usize,
     band_pass_resonances: usize,
     /// Couplings found: how often the 1σ interval of the coefficient covered the planted one, and
     /// the ratios of the estimates to it.
@@ -77,8 +79,6 @@ struct Tally {
     gm_found: usize,
     gm_covered: [usize; 2],
     gm_ratios: [Vec<f64>; 2],
-    /// The resonances are peaks beyond the fit band read off their narrow band.
-    resonances_from_bands: bool,
     /// Narrow bands found at a planted (wandering) line: how often the centre's 1σ interval
     /// covered its mean frequency, the centres' distances from it and the intervals' half-widths
     /// (Hz).
@@ -725,6 +725,7 @@ fn main() {
                 {
                     if case.expect == Some("resonance") {
                         tally.resonances_found += 1;
+                        tally.in_band_resonances += 1;
                         tally.band_pass_resonances += usize::from(
                             *form == imunoise::effects::shapes::ResonanceForm::BandPass,
                         );
@@ -747,7 +748,6 @@ fn main() {
                     let planted = &case.extra["resonances"][0];
                     if let (Some(r), Some(f0_t)) = (&nb.resonance, planted["f0_hz"].as_f64()) {
                         tally.resonances_found += 1;
-                        tally.resonances_from_bands = true;
                         let truth = |key: &str| planted[key].as_f64().unwrap_or(f64::NAN);
                         tally.resonance([
                             (r.f0_hz, r.f0_lo_hz, r.f0_hi_hz, f0_t),
@@ -1017,21 +1017,23 @@ fn main() {
             ));
         } else if tally.resonances_found > 0 {
             let [rf, rq, rs] = &mut tally.resonance_ratios;
-            let what = if tally.resonances_from_bands {
-                "peaks beyond the fit band read as resonances"
-            } else {
-                "resonances found"
-            };
-            let forms = if tally.resonances_from_bands {
-                String::new()
+            let (found, inside, bp) = (
+                tally.resonances_found,
+                tally.in_band_resonances,
+                tally.band_pass_resonances,
+            );
+            let what = if inside == found {
+                format!("resonances found ({bp} read in the band-pass form)")
+            } else if inside == 0 {
+                "peaks beyond the fit band read as resonances".to_string()
             } else {
                 format!(
-                    " ({} read in the band-pass form)",
-                    tally.band_pass_resonances
+                    "resonances found ({inside} inside the fit band, {bp} of those read in the band-pass form; {} peaks beyond it)",
+                    found - inside
                 )
             };
             edge_notes.push(format!(
-                "{}: of {} {what}{forms}, the 1σ interval covers f₀ in {}, Q in {}, σ in {}; median ratios to the truth f₀ {:.4}, Q {:.3}, σ {:.3}.",
+                "{}: of {} {what}, the 1σ interval covers f₀ in {}, Q in {}, σ in {}; median ratios to the truth f₀ {:.4}, Q {:.3}, σ {:.3}.",
                 case.name,
                 tally.resonances_found,
                 pct(tally.resonance_covered[0], tally.resonances_found),
