@@ -77,9 +77,13 @@ pub(super) fn golden(
 /// the score crosses `best + threshold`, interpolated between the last point inside and the first
 /// outside on each side, linearly in √(score − best) (which a locally quadratic profile makes
 /// linear in the parameter) and in the parameter itself (`log`: in its logarithm). A side without a
-/// point outside ends at its last point inside. The ends of the points inside alone were too
-/// narrow: the trial grid is a twelfth of a half-power width apart, about the interval's own width,
-/// and the resonance's f₀ interval covered the truth in 16 % of 50 seeds, Q's in 20 %.
+/// point outside ends at its last point inside, or, where trial points beyond that one could not
+/// be fitted (no finite score), at the farthest of them: the profile is unknown there, and an end
+/// at the last point inside had printed intervals of no width (Q 40.05 [40.05, 40.05] on a
+/// flight controller's accelerometer whose every other Q trial failed). The ends of the points
+/// inside alone were too narrow: the trial grid is a twelfth of a half-power width apart, about
+/// the interval's own width, and the resonance's f₀ interval covered the truth in 16 % of 50
+/// seeds, Q's in 20 %.
 pub(super) fn profile_range(
     points: &[(f64, f64, Option<EffectEstimate>)],
     best: f64,
@@ -107,15 +111,23 @@ pub(super) fn profile_range(
             xi
         }
     };
+    // The farthest trial values on either side, fitted or not.
+    let tried = points
+        .iter()
+        .filter(|p| p.0.is_finite() && (!log || p.0 > 0.0))
+        .map(|p| to(p.0));
+    let (tried_lo, tried_hi) = tried.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+        (a.min(x), b.max(x))
+    });
     let lo = if first > 0 {
         crossing(first, first - 1)
     } else {
-        sorted[first].0
+        sorted[first].0.min(tried_lo)
     };
     let hi = if last + 1 < sorted.len() {
         crossing(last, last + 1)
     } else {
-        sorted[last].0
+        sorted[last].0.max(tried_hi)
     };
     let sigma = points
         .iter()
@@ -538,5 +550,15 @@ mod tests {
             .collect();
         let (lo, hi, _) = profile_range(&one_sided, best, 1.0, false);
         assert!((lo - 7.99).abs() < 1e-12 && hi == 8.005, "{lo} {hi}");
+        // Every trial but the optimum failed: the interval spans the trials, not a point.
+        let failed: Vec<_> = [(30.0, f64::INFINITY), (40.0, best), (55.0, f64::NAN)]
+            .iter()
+            .map(|&(q, sc)| (q, sc, None))
+            .collect();
+        let (lo, hi, _) = profile_range(&failed, best, 1.0, true);
+        assert!(
+            (lo - 30.0).abs() < 1e-9 && (hi - 55.0).abs() < 1e-9,
+            "{lo} {hi}"
+        );
     }
 }
