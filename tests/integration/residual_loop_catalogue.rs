@@ -229,7 +229,7 @@ fn a_band_pass_resonance_is_read_in_its_form_and_leaves_n_alone() {
     // The spectrum, where the white floor lies between the resonance's flanks, within 2 %; the
     // Allan fit, whose short τ the resonance rules, within 10 %; each within three of its 1σ
     // half-widths (measured: spectrum 1.010 [1.003, 1.017], Allan 0.947 [0.875, 1.039]; on three
-    // seeds of 30 min through the CLI the spectrum read 1.005, 1.007, 0.994, each covering it).
+    // 30-min records through the CLI at Q 18 the spectrum read 1.006, 1.008, 0.994, each covering it).
     for (fit, within) in [(o.spectrum.as_ref(), 0.02), (o.allan.as_ref(), 0.1)] {
         let n = fit.and_then(|f| f.get(Term::RandomWalk)).unwrap();
         let half = (n.hi - n.lo) / 2.0;
