@@ -56,7 +56,7 @@ fn sinc2(x: f64) -> f64 {
 /// broadband base excitation) keeps a plateau below f₀ at 1/q² of its peak, and for a strong
 /// resonance of moderate Q that plateau is white noise of the same order as the sensor's own: a
 /// flight controller's accelerometers on a frame resonance of Q 18 at 68 Hz (σ 0.03 m/s², 70
-/// µg/√Hz sensor) had N read 0.65–0.70× the truth, the plateau taking the rest, with intervals
+/// µg/√Hz sensor) had N read 0.65–0.82× the truth, the plateau taking the rest, with intervals
 /// excluding it. The velocity-like output ([`ResonanceForm::BandPass`], a gyro's rate of a
 /// torsional mode, or any mode excited by narrowband forcing) has no plateau: it falls as f²
 /// below the peak. The data choose (same parameters; the loop compares the two at the best f₀

@@ -79,8 +79,7 @@ pub(super) fn golden(
 /// linear in the parameter) and in the parameter itself (`log`: in its logarithm). A side without a
 /// point outside ends at its last point inside, or, where trial points beyond that one could not
 /// be fitted (no finite score), at the farthest of them: the profile is unknown there, and an end
-/// at the last point inside had printed intervals of no width (Q 40.05 [40.05, 40.05] on a
-/// flight controller's accelerometer whose every other Q trial failed). The ends of the points
+/// at the last point inside would claim the parameter known to the optimum. The ends of the points
 /// inside alone were too narrow: the trial grid is a twelfth of a half-power width apart, about
 /// the interval's own width, and the resonance's f₀ interval covered the truth in 16 % of 50
 /// seeds, Q's in 20 %.
