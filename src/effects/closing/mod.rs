@@ -587,6 +587,16 @@ fn noise_density<'a>(
     move |f| density_of(&c, fit, stochastic, f, fs)
 }
 
+/// A scan window's length for the evidence: in ms below a second (a 1-kHz record's 16-sample
+/// windows were written "0.0 s").
+fn window_text(seconds: f64) -> String {
+    if seconds < 1.0 {
+        format!("{:.1} ms", seconds * 1e3)
+    } else {
+        format!("{seconds:.1} s")
+    }
+}
+
 /// K where `fit` kept it with an interval (at 1σ) down to 0: the record does not determine it, and
 /// [`NoiseK::Guarded`] raises it.
 fn undetermined_k(fit: &NoiseFit) -> Option<&crate::model::TermEstimate> {
@@ -1278,8 +1288,10 @@ fn propose<'a>(
             veto: None,
             delta_bic: step.delta_bic,
             evidence: format!(
-                "time series: mean jumps at {:.1} s (dynamic Allan z = {:.1} over {:.1} s windows)",
-                step.time_s, step.z, step.window_s
+                "time series: mean jumps at {:.1} s (dynamic Allan z = {:.1} over {} windows)",
+                step.time_s,
+                step.z,
+                window_text(step.window_s)
             ),
             effect: Effect::Step(step),
             apply: Apply::Series(Box::new(move |y| remove_step(y, &s))),
@@ -1566,6 +1578,12 @@ fn excess_note(e: &Excess, why: &str) -> Rejected {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_short_scan_window_is_written_in_milliseconds() {
+        assert_eq!(window_text(0.016), "16.0 ms");
+        assert_eq!(window_text(2.56), "2.6 s");
+    }
 
     fn excursion(start_s: f64, end_s: f64) -> Effect {
         Effect::Excursion(crate::effects::excursion::Excursion {
