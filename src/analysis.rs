@@ -17,7 +17,7 @@ use crate::effects::ramp::{widen_ramp, RampAction, RampDecision};
 use crate::effects::{close_loop_from_base, AuxSeries, LoopConfig, LoopReport};
 use crate::estimate::{ChannelDeviations, ChannelPsd};
 use crate::model::{
-    combine, compare, rounding_warning, BandEdge, Bandwidth, Combined, FitError, FitOptions,
+    combine, compare, hull, rounding_warning, BandEdge, Bandwidth, Combined, FitError, FitOptions,
     NoiseFit, Sensor, Term, TermComparison,
 };
 
@@ -153,9 +153,8 @@ fn grid_quantisation(a: &mut ChannelAnalysis, step: f64, rate_hz: f64) {
     {
         if q.is_finite() && q > 0.0 {
             t.value = q;
-            t.lo = t.lo.min(q);
-            t.hi = t.hi.max(q);
-            t.one_sigma = (t.one_sigma.0.min(q), t.one_sigma.1.max(q));
+            (t.lo, t.hi) = hull((t.lo, t.hi), (q, q));
+            t.one_sigma = hull(t.one_sigma, (q, q));
         }
     }
 }
@@ -170,15 +169,15 @@ fn span_both_fits(a: &mut ChannelAnalysis, term: Term) {
     let fits: Vec<_> = [a.allan_fit(), a.spectrum_fit()]
         .into_iter()
         .flatten()
-        .filter_map(|f| f.get(term).map(|e| (e.lo, e.hi, e.one_sigma)))
+        .filter_map(|f| f.get(term).map(|e| ((e.lo, e.hi), e.one_sigma)))
         .collect();
     if fits.len() < 2 {
         return;
     }
     if let Some(t) = a.combined.terms.iter_mut().find(|t| t.term == term) {
-        for (lo, hi, (lo1, hi1)) in fits {
-            (t.lo, t.hi) = (t.lo.min(lo), t.hi.max(hi));
-            t.one_sigma = (t.one_sigma.0.min(lo1), t.one_sigma.1.max(hi1));
+        for (reported, one_sigma) in fits {
+            (t.lo, t.hi) = hull((t.lo, t.hi), reported);
+            t.one_sigma = hull(t.one_sigma, one_sigma);
         }
         t.hull = true;
     }

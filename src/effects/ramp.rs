@@ -24,7 +24,7 @@
 
 use serde::Serialize;
 
-use crate::model::{Coefficients, FitOptions, NoiseFit, Term, TermEstimate};
+use crate::model::{hull, Coefficients, FitOptions, NoiseFit, Term};
 
 use super::regression::{IncrementModel, MAX_INCREMENTS};
 use super::slow::DETECTION_P;
@@ -115,14 +115,9 @@ pub fn test_ramp(y: &[f64], fs: f64, model: &NoiseFit) -> Option<RampTest> {
 pub fn ramp_null_coefficients(fit: &NoiseFit) -> Coefficients {
     let mut c = ramp_free_coefficients(fit);
     if let Some(k) = fit.get(Term::RateRandomWalk) {
-        c.set(Term::RateRandomWalk, one_sigma_upper(k));
+        c.set(Term::RateRandomWalk, k.one_sigma.1);
     }
     c
-}
-
-/// The upper end of `e`'s one-sigma interval.
-pub fn one_sigma_upper(e: &TermEstimate) -> f64 {
-    e.one_sigma.1
 }
 
 /// The ramp of `y` (at `fs`) under the one-sided noise `density` (without a ramp; for a model
@@ -209,12 +204,8 @@ pub fn widen_ramp(fit: &mut NoiseFit, test: &RampTest) {
         if !(lo..=hi).contains(&e.value) {
             e.value = r;
         }
-        e.lo = e.lo.min(lo);
-        e.hi = e.hi.max(hi);
-        e.one_sigma = (
-            e.one_sigma.0.min(one_sigma.0),
-            e.one_sigma.1.max(one_sigma.1),
-        );
+        (e.lo, e.hi) = hull((e.lo, e.hi), (lo, hi));
+        e.one_sigma = hull(e.one_sigma, one_sigma);
     }
 }
 

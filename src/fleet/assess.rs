@@ -274,7 +274,7 @@ pub fn assess(mut records: Vec<ChannelRecord>, spec: &Spec) -> Fleet {
                     // reaches 0 has no standard error on the log scale, and one its fit could
                     // not tell from a neighbouring term is an attribution (R for K).
                     let determined = values.value.filter(|_| values.determined());
-                    let u = record.confidence.and_then(|p| values.log_se(p));
+                    let u = values.log_se();
                     if let (Some(s), Some(v), Some(u)) = (stat, determined, u) {
                         let z = s.z_with(v.ln(), u);
                         a.z = Some(z);
@@ -580,6 +580,7 @@ mod tests {
             hi: Some(n * 1.03),
             upper: None,
             lo_one_sigma: Some(n * 0.97),
+            hi_one_sigma: Some(n * 1.03),
             ambiguous: false,
         };
         r.terms[Term::RateRamp.index()].upper = Some(1e-9);
@@ -835,6 +836,7 @@ mod tests {
             hi: Some(1.05 * wild),
             upper: None,
             lo_one_sigma: Some(0.97 * wild),
+            hi_one_sigma: Some(1.03 * wild),
             ambiguous: false,
         };
         records[2].terms[Term::RandomWalk.index()] = TermValues {

@@ -69,7 +69,7 @@ pub use spec::{FleetOptions, Limit, Spec, SpecError};
 pub use verdict::{judge, Basis, Verdict};
 
 /// Version of the part-file and fleet-table schemas; a part file of another version is
-/// recomputed, not read. 4: the terms' `lo_1sigma` columns.
+/// recomputed, not read. 4: the terms' `lo_1sigma` and `hi_1sigma` columns.
 pub const SCHEMA_VERSION: u32 = 4;
 
 /// Something that stops the screen as a whole (as opposed to one input's error, which becomes

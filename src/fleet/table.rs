@@ -106,7 +106,7 @@ struct Common {
     samples: UInt64Builder,
     mean: Float64Builder,
     analysed: BooleanBuilder,
-    terms: Vec<[Float64Builder; 5]>,
+    terms: Vec<[Float64Builder; 6]>,
     ambiguous: Vec<BooleanBuilder>,
     confidence: Float64Builder,
     effects: StringBuilder,
@@ -180,6 +180,7 @@ impl Common {
             b[2].append_option(t.hi);
             b[3].append_option(t.upper);
             b[4].append_option(t.lo_one_sigma);
+            b[5].append_option(t.hi_one_sigma);
         }
         for (b, t) in self.ambiguous.iter_mut().zip(&r.terms) {
             b.append_value(t.ambiguous);
@@ -222,7 +223,7 @@ impl Common {
             .zip(self.terms.iter_mut())
             .map(|(t, b)| {
                 let p = term_prefix(*t);
-                ["value", "lo", "hi", "upper", "lo_1sigma"]
+                ["value", "lo", "hi", "upper", "lo_1sigma", "hi_1sigma"]
                     .iter()
                     .zip(b.iter_mut())
                     .map(|(what, b)| s(&format!("{p}_{what}"), Arc::new(b.finish())))
@@ -419,7 +420,7 @@ fn records_from_batch(b: &RecordBatch, out: &mut Vec<ChannelRecord>) -> Result<(
     let mean = column::<Float64Array>(b, "mean")?;
     let analysed = column::<BooleanArray>(b, "analysed")?;
     let mut terms: Vec<[&Float64Array; 4]> = Vec::new();
-    let mut lo_one_sigma: Vec<&Float64Array> = Vec::new();
+    let mut one_sigma: Vec<[&Float64Array; 2]> = Vec::new();
     let mut ambiguous: Vec<&BooleanArray> = Vec::new();
     for t in Term::ALL {
         let p = term_prefix(t);
@@ -429,7 +430,10 @@ fn records_from_batch(b: &RecordBatch, out: &mut Vec<ChannelRecord>) -> Result<(
             column::<Float64Array>(b, &format!("{p}_hi"))?,
             column::<Float64Array>(b, &format!("{p}_upper"))?,
         ]);
-        lo_one_sigma.push(column::<Float64Array>(b, &format!("{p}_lo_1sigma"))?);
+        one_sigma.push([
+            column::<Float64Array>(b, &format!("{p}_lo_1sigma"))?,
+            column::<Float64Array>(b, &format!("{p}_hi_1sigma"))?,
+        ]);
         ambiguous.push(column::<BooleanArray>(b, &format!("{p}_ambiguous"))?);
     }
     let confidence = column::<Float64Array>(b, "confidence")?;
@@ -442,15 +446,15 @@ fn records_from_batch(b: &RecordBatch, out: &mut Vec<ChannelRecord>) -> Result<(
     let s = |a: &StringArray, i: usize| opt(a.is_valid(i), a.value(i).to_string());
     for i in 0..b.num_rows() {
         let mut tv = [TermValues::default(); 5];
-        for (((slot, cols), amb), lo1) in
-            tv.iter_mut().zip(&terms).zip(&ambiguous).zip(&lo_one_sigma)
+        for (((slot, cols), amb), one) in tv.iter_mut().zip(&terms).zip(&ambiguous).zip(&one_sigma)
         {
             *slot = TermValues {
                 value: f(cols[0], i),
                 lo: f(cols[1], i),
                 hi: f(cols[2], i),
                 upper: f(cols[3], i),
-                lo_one_sigma: f(lo1, i),
+                lo_one_sigma: f(one[0], i),
+                hi_one_sigma: f(one[1], i),
                 ambiguous: amb.is_valid(i) && amb.value(i),
             };
         }
@@ -582,6 +586,7 @@ mod tests {
             hi: Some(4.1e-5),
             upper: None,
             lo_one_sigma: Some(3.9e-5),
+            hi_one_sigma: Some(4.1e-5),
             ambiguous: false,
         };
         r.terms[4].upper = Some(1e-9);

@@ -41,7 +41,7 @@ use serde::Serialize;
 use crate::avar::{Deviations, ONE_SIGMA};
 use crate::stats::{chi2_quantile, normal_quantile};
 
-use super::{Domain, NoiseFit, Term, TermEstimate, UpperLimit, FLICKER_PLATEAU};
+use super::{hull, Domain, NoiseFit, Term, TermEstimate, UpperLimit, FLICKER_PLATEAU};
 
 /// A coefficient's one answer.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -688,12 +688,8 @@ pub fn combine(
                         Some(Domain::Spectrum) => pick(s, Domain::Spectrum),
                         None => c,
                     };
-                    c.lo = a.lo.min(s.lo);
-                    c.hi = a.hi.max(s.hi);
-                    c.one_sigma = (
-                        a.one_sigma.0.min(s.one_sigma.0),
-                        a.one_sigma.1.max(s.one_sigma.1),
-                    );
+                    (c.lo, c.hi) = hull((a.lo, a.hi), (s.lo, s.hi));
+                    c.one_sigma = hull(a.one_sigma, s.one_sigma);
                     c.hull = true;
                     let p = confidence(allan_fit, spectrum_fit);
                     let d = (a.value / s.value).ln().abs()

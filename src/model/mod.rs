@@ -96,8 +96,8 @@ pub use resolution::{
     SUBTRACTION_HOLDS_TO_STEPS, UPPER_BOUND_HOLDS_TO_STEPS,
 };
 pub use result::{
-    Candidate, Criterion, Domain, EffectEstimate, FitPoint, LackOfFit, NoiseFit, TermEstimate,
-    UpperLimit,
+    hull, Candidate, Criterion, Domain, EffectEstimate, FitPoint, LackOfFit, NoiseFit,
+    TermEstimate, UpperLimit,
 };
 pub use select::{bic_weight, AMBIGUITY_BIC, LACK_OF_FIT_P, SELECTION_WINDOW};
 pub use terms::{Coefficients, GaussMarkov, Sinusoid, Term, FLICKER_PLATEAU};

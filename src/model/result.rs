@@ -77,6 +77,11 @@ pub struct TermEstimate {
     pub zero_share: f64,
 }
 
+/// The smallest interval holding both `a` and `b` (each (lo, hi)).
+pub fn hull(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
+    (a.0.min(b.0), a.1.max(b.1))
+}
+
 impl TermEstimate {
     /// Whether `v` lies in the interval.
     pub fn covers(&self, v: f64) -> bool {

@@ -47,8 +47,8 @@ use super::excursion::{
 };
 use super::lines::{find_excess, Excess};
 use super::ramp::{
-    one_sigma_upper, ramp_free_coefficients, ramp_null_coefficients, test_ramp_beside, widen_ramp,
-    without_ramp, RampAction, RampDecision, RampTest, TestedSeries, HINT_P,
+    ramp_free_coefficients, ramp_null_coefficients, test_ramp_beside, widen_ramp, without_ramp,
+    RampAction, RampDecision, RampTest, TestedSeries, HINT_P,
 };
 use super::regression::{IncrementModel, MAX_INCREMENTS};
 use super::residuals::{diagnose, Diagnostics};
@@ -582,7 +582,7 @@ fn noise_density<'a>(
         _ => ramp_free_coefficients(fit),
     };
     if let (NoiseK::Guarded, Some(e)) = (k, undetermined_k(fit)) {
-        c.set(Term::RateRandomWalk, one_sigma_upper(e));
+        c.set(Term::RateRandomWalk, e.one_sigma.1);
     }
     move |f| density_of(&c, fit, stochastic, f, fs)
 }

@@ -3,6 +3,7 @@
 //! intervals, entering both fits as one more column.
 
 use super::*;
+use crate::model::hull;
 /// The fit options for the many fits of a profile over an effect's shape parameters (a resonance's
 /// f₀ and Q, a Gauss–Markov Tc): the base terms chosen among those the current fits kept in
 /// either domain, not among all. An effect may replace a kept term but not call for a new one
@@ -486,13 +487,10 @@ fn join_intervals(fit: &mut NoiseFit, other: Option<&NoiseFit>, reported: bool, 
     for e in &mut fit.estimates {
         if let Some(o) = other.get(e.term) {
             if reported {
-                (e.lo, e.hi) = (e.lo.min(o.lo), e.hi.max(o.hi));
+                (e.lo, e.hi) = hull((e.lo, e.hi), (o.lo, o.hi));
             }
             if one_sigma {
-                e.one_sigma = (
-                    e.one_sigma.0.min(o.one_sigma.0),
-                    e.one_sigma.1.max(o.one_sigma.1),
-                );
+                e.one_sigma = hull(e.one_sigma, o.one_sigma);
             }
         }
     }
