@@ -3,7 +3,7 @@
 //! there is no filter. The simulator's filter (digital Butterworth sections, `sim/lowpass.rs`) is
 //! an implementation independent of the detector's response family.
 
-use crate::support::repo_root;
+use crate::support::{repo_root, term_value};
 use imunoise::avar::{compute, Confidence, Statistic, TauGrid};
 use imunoise::effects::{close_loop, LoopConfig, LoopOutcome};
 use imunoise::model::{BandEdge, CoefUnit, Coefficients, Decimator, FilterForm, LowPass, Term};
@@ -509,14 +509,7 @@ fn an_independent_sigma_delta_gyro_is_read_as_its_chain() {
             let loss = 1.0 - dec.power_gain(edge, fs);
             assert!(loss <= 0.025, "{name}: loss {loss} at {edge} Hz ({band})");
         }
-        let n = a["combined"]["terms"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|e| e["term"] == "random_walk")
-            .expect("N")["value"]
-            .as_f64()
-            .unwrap();
+        let n = term_value(a, "random_walk").expect("N");
         let want = t["N_with_rounding"].as_f64().unwrap();
         assert!((n / want - 1.0).abs() < 0.03, "{name}: N {n:e} vs {want:e}");
     }

@@ -292,14 +292,7 @@ fn analyze_simulated(dir: &std::path::Path, spec: &Value) -> (Value, f64) {
     let doc: Value =
         serde_json::from_slice(&std::fs::read(dir.join("out/report.json")).unwrap()).unwrap();
     let a = doc["files"][0]["analysis"][0].clone();
-    let n = a["combined"]["terms"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|t| t["term"] == "random_walk")
-        .expect("N kept")["value"]
-        .as_f64()
-        .unwrap();
+    let n = term_value(&a, "random_walk").expect("N kept");
     (a, n)
 }
 

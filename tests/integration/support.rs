@@ -230,7 +230,12 @@ pub fn combined_warning(
 
 /// The combined value of `term` (report.json's name, e.g. `random_walk`) on channel `name`.
 pub fn combined_value(report: &serde_json::Value, name: &str, term: &str) -> Option<f64> {
-    channel_analysis(report, name)["combined"]["terms"]
+    term_value(&channel_analysis(report, name), term)
+}
+
+/// The combined value of `term` in one channel's `analysis` entry of report.json.
+pub fn term_value(analysis: &serde_json::Value, term: &str) -> Option<f64> {
+    analysis["combined"]["terms"]
         .as_array()
         .unwrap()
         .iter()
