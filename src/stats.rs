@@ -247,6 +247,31 @@ fn wilson_hilferty(p: f64, nu: f64) -> f64 {
     nu * (1.0 - c + z * c.sqrt()).powi(3)
 }
 
+/// Golden-section minimum of `g` on [a, b] (`iters` steps): (x, g(x)). For the one-dimensional
+/// searches over an effect's shape parameter (a resonance's Q or f₀, a Gauss–Markov Tc), whose
+/// scores are single-welled over the range searched.
+pub fn golden(g: &mut dyn FnMut(f64) -> f64, mut a: f64, mut b: f64, iters: usize) -> (f64, f64) {
+    let r = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut c, mut d) = (b - r * (b - a), a + r * (b - a));
+    let (mut gc, mut gd) = (g(c), g(d));
+    for _ in 0..iters {
+        if gc <= gd {
+            (b, d, gd) = (d, c, gc);
+            c = b - r * (b - a);
+            gc = g(c);
+        } else {
+            (a, c, gc) = (c, d, gd);
+            d = a + r * (b - a);
+            gd = g(d);
+        }
+    }
+    if gc <= gd {
+        (c, gc)
+    } else {
+        (d, gd)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

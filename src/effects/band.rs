@@ -1,7 +1,9 @@
 //! The base fits inside the sensor's band: the one flow that `analyze` (before the loop) and the
 //! loop (when it is handed no base fits) both run, so that the two cannot drift apart.
 //!
-//! 1. Look for the sensor's low-pass roll-off in the spectrum ([`detect_bandwidth`]).
+//! 1. Look for the sensor's low-pass roll-off in the spectrum ([`detect_bandwidth`]), and drop
+//!    it where the strongest narrow excess, modelled as a resonance, explains it as well
+//!    ([`resonance_explains_roll_off`]: a band-pass resonance's skirt read as a filter).
 //! 2. Fit the Allan variance and the spectrum with the options restricted to the band it keeps
 //!    ([`Bandwidth::restrict`]).
 //! 3. Ask whether the edge is the output's coarse angle grid rather than a filter
@@ -28,6 +30,7 @@ use crate::psd::{BinnedPsd, Psd};
 
 use super::angle_grid::attribute_edge;
 use super::ramp::{test_ramp, widen_ramp, without_ramp, RampAction, RampDecision, TestedSeries};
+use super::skirt::resonance_explains_roll_off;
 
 /// What the fits know of the series behind the estimates.
 #[derive(Debug, Clone, Copy, Default)]
@@ -78,12 +81,14 @@ pub fn fit_in_band(
             // the narrower of the two ([`Bandwidth::restrict`]).
             let mut whole = opts.clone();
             whole.max_freq_hz = None;
-            detect_bandwidth(psd, binned, taus, &whole).map(|mut b| {
-                if let Some(user) = opts.max_freq_hz {
-                    b.fit_max_freq_hz = b.fit_max_freq_hz.min(user);
-                }
-                b
-            })
+            detect_bandwidth(psd, binned, taus, &whole)
+                .filter(|b| !resonance_explains_roll_off(psd, binned, &whole, b))
+                .map(|mut b| {
+                    if let Some(user) = opts.max_freq_hz {
+                        b.fit_max_freq_hz = b.fit_max_freq_hz.min(user);
+                    }
+                    b
+                })
         }
         _ => None,
     };

@@ -18,6 +18,7 @@ pub mod regression;
 pub mod residuals;
 pub mod shapes;
 pub mod shift;
+pub mod skirt;
 pub mod slow;
 // The time-domain detectors guard their inputs with `!(x > 0.0)` on purpose: it rejects NaN along
 // with non-positive values in one comparison.

@@ -67,7 +67,7 @@ use super::{FitOptions, Term};
 /// Largest bias a band's filter may leave in the points the fits use (2 %).
 pub const BAND_BIAS: f64 = 0.02;
 /// ΔBIC a low-pass model must reach to be reported.
-const DETECT_BIC: f64 = -25.0;
+pub const DETECT_BIC: f64 = -25.0;
 /// Least attenuation (dB) the response must reach at the top fitted band to be reported.
 const MIN_ATTENUATION_DB: f64 = 1.0;
 /// A band this many of its own standard errors above the median of its neighbours is a narrow
@@ -76,7 +76,7 @@ const EXCESS_Z: f64 = 5.0;
 
 /// Whether band i stands above the median of the three bands on either side by more than
 /// [`EXCESS_Z`] standard errors: a line or a resonance, not the smooth shape of a filter.
-fn narrow_excess(p: &Problem, i: usize) -> bool {
+pub(super) fn narrow_excess(p: &Problem, i: usize) -> bool {
     let lo = i.saturating_sub(3);
     let hi = (i + 3).min(p.len() - 1);
     let mut around: Vec<f64> = (lo..=hi).filter(|&k| k != i).map(|k| p.value[k]).collect();

@@ -74,13 +74,16 @@ mod options;
 mod psd_fit;
 mod resolution;
 mod result;
+mod roll_off_check;
 mod select;
 mod terms;
 mod units;
 
 pub use avar_fit::{fit_avar, fit_avar_with, fit_points, FIT_TAU_RATIO};
 pub use average::{average_with_rival, rival_share};
-pub use bandwidth::{detect_bandwidth, BandEdge, Bandwidth, FilterForm, LowPass, BAND_BIAS};
+pub use bandwidth::{
+    detect_bandwidth, BandEdge, Bandwidth, FilterForm, LowPass, BAND_BIAS, DETECT_BIC,
+};
 pub use combine::{
     combine, heavy_tail_line, not_static_line, read_offs, resolution_line, upper_limit, Combined,
     CombinedTerm, FitWarning, ReadOff,
@@ -99,6 +102,7 @@ pub use result::{
     hull, Candidate, Criterion, Domain, EffectEstimate, FitPoint, LackOfFit, NoiseFit,
     TermEstimate, UpperLimit,
 };
+pub use roll_off_check::RollOffCheck;
 pub use select::{bic_weight, AMBIGUITY_BIC, LACK_OF_FIT_P, SELECTION_WINDOW};
 pub use terms::{Coefficients, GaussMarkov, Sinusoid, Term, FLICKER_PLATEAU};
 pub use units::{CoefUnit, Sensor, UnitError};

@@ -26,10 +26,10 @@
 
 use serde::Serialize;
 
-use super::stochastic::golden;
 use crate::effects::shapes::Resonance;
 use crate::model::EffectShape;
 use crate::psd::{neighbour_redundancy, Psd};
+use crate::stats::golden;
 
 /// A resonance read off a peak beyond the fit band, each parameter with its profile interval.
 #[derive(Debug, Clone, PartialEq, Serialize)]
