@@ -6,11 +6,14 @@
 //! kept only where it still improves the model by ΔBIC < [`DETECT_BIC`] (its corner and order
 //! charged) with the resonance in both.
 //!
-//! Measured (`VALIDATION_CASES=band-pass`, 50 seeds of 30 min at 100 Hz, a band-pass resonance at
-//! 8 Hz, Q 20, as strong as the white noise): a false filter in 50 of 50 records before, none
-//! after; the filtered validation cases (low-pass, decimator chains, lines and resonances on a
-//! filtered sensor) keep theirs, where the filter improves the model by 10³–10⁴ with the excess
-//! modelled.
+//! Measured over the validation study's 50 seeds per case (30 min at 100 Hz): a band-pass
+//! resonance at 8 Hz, Q 20, as strong as the white noise, was read as a filter in 50 of 50 records
+//! before and in none after (with the resonance modelled, the filter's ΔBIC is +7100 to +9600).
+//! Where a real filter stands beside an excess the filter's ΔBIC with the excess modelled is
+//! −8.5·10⁴ to −7.1·10⁴ (a wandering line or an 18-Hz resonance by a second-order filter) and −67
+//! to −192 on the order-4 filter over an angle quantiser (38 of its 50 records hold an excess):
+//! every filtered case of the study keeps its filter in the same records as before. The last
+//! margin is the thinnest: about 40 above the threshold.
 
 use crate::model::{Bandwidth, FitOptions, RollOffCheck, DETECT_BIC};
 use crate::psd::{BinnedPsd, Psd};
