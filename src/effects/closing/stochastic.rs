@@ -78,8 +78,18 @@ pub(super) fn profile_range(
     sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
     let edge = threshold.max(0.0).sqrt();
     let inside: Vec<usize> = (0..sorted.len()).filter(|&i| sorted[i].1 <= edge).collect();
+    // The farthest trial values on either side, fitted or not.
+    let tried = points
+        .iter()
+        .filter(|p| p.0.is_finite() && (!log || p.0 > 0.0))
+        .map(|p| to(p.0));
+    let (tried_lo, tried_hi) = tried.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+        (a.min(x), b.max(x))
+    });
     let (Some(&first), Some(&last)) = (inside.first(), inside.last()) else {
-        return (f64::INFINITY, f64::NEG_INFINITY, None);
+        // No point of this profile within the threshold of `best` (found off it): where the
+        // parameter lies is not known from these points, and the interval spans all tried.
+        return (from(tried_lo), from(tried_hi), None);
     };
     let crossing = |i: usize, j: usize| {
         let ((xi, ri), (xj, rj)) = (sorted[i], sorted[j]);
@@ -89,14 +99,6 @@ pub(super) fn profile_range(
             xi
         }
     };
-    // The farthest trial values on either side, fitted or not.
-    let tried = points
-        .iter()
-        .filter(|p| p.0.is_finite() && (!log || p.0 > 0.0))
-        .map(|p| to(p.0));
-    let (tried_lo, tried_hi) = tried.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-        (a.min(x), b.max(x))
-    });
     let lo = if first > 0 {
         crossing(first, first - 1)
     } else {
@@ -212,7 +214,6 @@ pub(super) fn resonance_candidate(
         }
     }
     let fit_at = |f0: f64, q: f64| fit_at(f0, q, form);
-    let mut f_points: Points = Vec::new();
     // Profile grids around the optimum, for the intervals: f₀ at the final Q only (the golden
     // search's points were at the first Q, a slice offset by the change of Q, which made the
     // optimum an isolated point of the profile), a 24th of a half-power width apart within half a
@@ -222,24 +223,45 @@ pub(super) fn resonance_candidate(
         .map(|k| f64::from(k) / 24.0)
         .chain([-2.0, -1.5, -1.0, -0.75, 0.75, 1.0, 1.5, 2.0])
         .collect();
-    let grid: Vec<_> = (-12..=12)
-        .into_par_iter()
-        .map(|k| {
-            let qk = q * 10f64.powf(f64::from(k) / 12.0);
-            let (sq, fq) = fit_at(f0, qk);
-            (qk, sq, fq.and_then(|f| f.effect))
-        })
-        .collect();
-    q_points.extend(grid);
-    let grid: Vec<_> = f_steps
-        .into_par_iter()
-        .map(|step| {
-            let fk = f0 + step * (f0 / q);
-            let (sf, ff) = fit_at(fk, q);
-            (fk, sf, ff.and_then(|f| f.effect))
-        })
-        .collect();
-    f_points.extend(grid);
+    let grids = |f0: f64, q: f64| -> (Points, Points) {
+        let by_q = (-12..=12)
+            .into_par_iter()
+            .map(|k| {
+                let qk = q * 10f64.powf(f64::from(k) / 12.0);
+                let (sq, fq) = fit_at(f0, qk);
+                (qk, sq, fq.and_then(|f| f.effect))
+            })
+            .collect();
+        let by_f = f_steps
+            .par_iter()
+            .map(|&step| {
+                let fk = f0 + step * (f0 / q);
+                let (sf, ff) = fit_at(fk, q);
+                (fk, sf, ff.and_then(|f| f.effect))
+            })
+            .collect();
+        (by_q, by_f)
+    };
+    // Where a grid finds a better point than the search's optimum (a profile with several wells:
+    // a 131-Hz mode among a drone's rotor lines, whose f₀ grid found a better f₀ than the Q
+    // search's), the optimum moves there and both grids are made again around it (at most
+    // three times): profiles through a point that is not the optimum held no point within the
+    // threshold of the best score, and Q's interval came out as the single point [12.4, 12.4].
+    let (mut by_q, mut f_points) = grids(f0, q);
+    q_points.extend(std::mem::take(&mut by_q));
+    for _ in 0..3 {
+        let moved = q_points
+            .iter()
+            .map(|p| (f0, p.0, p.1))
+            .chain(f_points.iter().map(|p| (p.0, q, p.1)))
+            .filter(|p| p.2 < best - 1e-9 * best.abs().max(1.0))
+            .min_by(|a, b| a.2.total_cmp(&b.2));
+        let Some((f1, q1, s1)) = moved else {
+            break;
+        };
+        (f0, q, best) = (f1, q1, s1);
+        (q_points, f_points) = grids(f0, q);
+    }
     // The profile intervals compare restricted fits with the best restricted score; the
     // candidate's own fit at the optimum has every base term allowed.
     let best = q_points
@@ -514,11 +536,18 @@ mod tests {
         let (lo, hi, _) = profile_range(&points, best, 1.0, true);
         assert!((lo / (20.0 * (-0.08f64).exp()) - 1.0).abs() < 1e-9, "{lo}");
         assert!((hi / (20.0 * 0.08f64.exp()) - 1.0).abs() < 1e-9, "{hi}");
-        // No point inside: an empty range; the side without a point outside ends at its last.
-        assert_eq!(
-            profile_range(&[(1.0, best + 5.0, None)], best, 1.0, false).0,
-            f64::INFINITY
+        // No point within the threshold of the best (a best found off this profile): the
+        // interval spans every trial, not the single point it was before.
+        let off: Vec<_> = [(10.0, best + 5.0), (12.4, best + 3.0), (15.0, best + 9.0)]
+            .iter()
+            .map(|&(q, sc)| (q, sc, None))
+            .collect();
+        let (lo, hi, _) = profile_range(&off, best, 1.0, true);
+        assert!(
+            (lo - 10.0).abs() < 1e-9 && (hi - 15.0).abs() < 1e-9,
+            "{lo} {hi}"
         );
+        // The side without a point outside ends at its last.
         let one_sided: Vec<_> = [7.99, 8.0, 8.005]
             .iter()
             .map(|&x| (x, score(x), None))
