@@ -259,6 +259,14 @@ fn study_cases() -> Vec<Case> {
             rate: None,
         },
         Case {
+            name: "strong resonance 8 Hz, Q 20, σ 4.6e-4 rad/s (its plateau 44 % of the floor)".into(),
+            filtered: false,
+            extra: json!({ "resonances": [{ "f0_hz": RESONANCE.0, "q": RESONANCE.1, "sigma": 4.6e-4 }] }),
+            expect: Some("resonance"),
+            seconds: None,
+            rate: None,
+        },
+        Case {
             name: "band-pass resonance 8 Hz, Q 20, σ 4.6e-4 rad/s (its rate: no plateau, where the low-pass form's would be 44 % of the floor)".into(),
             filtered: false,
             extra: json!({ "resonances": [{ "f0_hz": RESONANCE.0, "q": RESONANCE.1, "sigma": 4.6e-4, "form": "band_pass" }] }),

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Reruns the validation study and writes validation/results.md (about 5 min on 2 cores with the
-# defaults: 31 cases × 50 seeds, 30 min at 100 Hz unless a case says otherwise).
+# defaults: 32 cases × 50 seeds, 30 min at 100 Hz unless a case says otherwise).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seeds="${1:-50}"

@@ -114,6 +114,16 @@ mod tests {
         }
     }
 
+    /// The same resonance in the low-pass form: its plateau below f₀ (44 % of the white level)
+    /// ends at the peak, a fall the detection alone reads as an order-8 filter near 11.5 Hz.
+    #[test]
+    fn a_strong_resonance_s_plateau_is_no_pass_band() {
+        for seed in [7_100_021, 7_100_022, 7_100_023] {
+            let extra = json!({ "resonances": [{ "f0_hz": 8.0, "q": 20.0, "sigma": 4.6e-4 }] });
+            assert_eq!(verdict(extra, seed), Some(true), "seed {seed}");
+        }
+    }
+
     /// A real filter beside a resonance inside its band, in either form (second order at 25 Hz;
     /// 8 Hz, Q 20): the filter stands with the resonance modelled.
     #[test]
