@@ -217,7 +217,9 @@ pub struct InputArgs {
     pub kinds: Vec<String>,
 
     /// Name of the time column (Arrow timestamp, float seconds, or integer ticks with metadata unit
-    /// s/ms/us/ns). Default: a timestamp-typed column, else one named time, timestamp, t or time_s.
+    /// s/ms/us/ns). Default: a timestamp-typed column, else one named (any case) field.header.stamp,
+    /// time, timestamp, t, time_s, time_ms, time_us, time_ns, timestamp_ms, timestamp_us, timestamp_ns,
+    /// stamp, %time or __time, the earliest in this list where several are.
     #[arg(long, value_name = "NAME", conflicts_with = "no_time")]
     pub time_column: Option<String>,
 

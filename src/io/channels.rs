@@ -298,6 +298,8 @@ const TIME_NAMES: &[&str] = &[
     "timestamp_ns",
     "stamp",
     "%time",
+    // PlotJuggler's CSV export.
+    "__time",
 ];
 
 /// Finds the time column: the one named by `--time-column`, else an Arrow timestamp column, else a
@@ -716,31 +718,54 @@ pub fn select_channels(
         .collect()
 }
 
-/// A column of a ROS topic's CSV export (`rostopic echo -p` of a sensor_msgs/Imu) that holds no
-/// measurement: the receive time `%time` (where the stamp is the time column), the sequence
-/// number, the orientation estimate and the covariance matrices. Left out unless `--channels`
-/// names them (each had been analysed as an aux channel).
-fn ros_bookkeeping(name: &str) -> bool {
+/// A ROS message field's path in a column name, with `.` between its parts: the name after
+/// `field.` (a `rostopic echo -p` export) or, for a name that begins with `/` (a PlotJuggler
+/// export: `/imu/angular_velocity/x`, the topic first), the whole name with `/` read as `.`.
+/// `None` for any other name.
+fn ros_path(name: &str) -> Option<String> {
     let n = name.to_ascii_lowercase();
-    n == "field.header.seq"
-        || n == "%time"
-        || n.starts_with("field.orientation")
-        || (n.starts_with("field.") && n.contains("_covariance"))
+    if let Some(rest) = n.strip_prefix("field.") {
+        Some(rest.to_string())
+    } else if n.starts_with('/') {
+        Some(n.replace('/', "."))
+    } else {
+        None
+    }
 }
 
-/// The unit sensor_msgs/Imu defines for a column of its CSV export: rad/s for
-/// `field.angular_velocity.*`, m/s² for `field.linear_acceleration.*` (REP 103), as the MCAP
-/// reader applies it.
+/// A column of a ROS topic's export (`rostopic echo -p` or PlotJuggler's CSV of a
+/// sensor_msgs/Imu) that holds no measurement: the receive time `%time` (where the stamp is the
+/// time column), the sequence number, the orientation estimate and the covariance matrices. Left
+/// out unless `--channels` names them (each had been analysed as an aux channel).
+fn ros_bookkeeping(name: &str) -> bool {
+    if name.eq_ignore_ascii_case("%time") {
+        return true;
+    }
+    ros_path(name).is_some_and(|p| {
+        let field =
+            |f: &str| p == f || p.starts_with(&format!("{f}.")) || p.contains(&format!(".{f}"));
+        field("header.seq") || field("orientation") || p.contains("_covariance")
+    })
+}
+
+/// The unit sensor_msgs/Imu defines for a column of its export: rad/s for
+/// `angular_velocity.x|y|z`, m/s² for `linear_acceleration.x|y|z` (REP 103), as the MCAP reader
+/// applies it, and °C for sensor_msgs/Temperature's `temperature`; in a `rostopic echo -p` export
+/// (`field.angular_velocity.x`) or PlotJuggler's (`/imu/angular_velocity/x`).
 fn ros_unit(name: &str) -> Option<ScaledUnit> {
-    let n = name.to_ascii_lowercase();
-    let axis = |prefix: &str| {
-        n.strip_prefix(prefix)
-            .is_some_and(|a| matches!(a, "x" | "y" | "z"))
+    let p = ros_path(name)?;
+    let axis = |field: &str| {
+        ["x", "y", "z"]
+            .iter()
+            .any(|a| p == format!("{field}.{a}") || p.ends_with(&format!(".{field}.{a}")))
     };
-    if axis("field.angular_velocity.") {
+    if axis("angular_velocity") {
         Some(Unit::RadPerS.into())
-    } else if axis("field.linear_acceleration.") {
+    } else if axis("linear_acceleration") {
         Some(Unit::MPerS2.into())
+    } else if p == "temperature" || p.ends_with(".temperature") {
+        // sensor_msgs/Temperature's field, in °C.
+        Some(Unit::DegC.into())
     } else {
         None
     }

@@ -125,7 +125,7 @@ pub enum InputError {
         previous_s: f64,
         this_s: f64,
     },
-    #[error("{path}: column {column:?}, row {row}: gap of {} s ({missing} samples missing) after t = {} s; use --on-gap ignore|fill to continue", seconds(*.gap_s), seconds(*.after_s))]
+    #[error("{path}: column {column:?}, row {row}: gap of {} s ({missing} samples missing) after t = {} s; use --on-gap ignore to join the two sides (the choice for noise analysis) or --on-gap fill to fill it with a straight line (keeps a line's phase, but its noise-free stretch biases N, B and K)", seconds(*.gap_s), seconds(*.after_s))]
     Gap {
         path: PathBuf,
         column: String,

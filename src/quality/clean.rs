@@ -252,13 +252,23 @@ impl Cleaner {
                 .names
                 .iter()
                 .enumerate()
-                .map(|(c, name)| ChannelQuality {
-                    name: name.clone(),
-                    nonfinite_samples: self.nonfinite[c],
-                    first_nonfinite_row: self.first_nonfinite[c],
-                    interpolated_samples: self.interpolated[c],
-                    verdicts: verdicts(&self.specs[c], &self.stats[c].summary()),
-                    summary: self.stats[c].summary(),
+                .map(|(c, name)| {
+                    let mut summary = self.stats[c].summary();
+                    // Saturation is judged on gyros and accelerometers only ([`verdicts`]): a
+                    // temperature in 0.125 °C steps that warms up to its last level holds it for
+                    // many samples, and was listed as "possibly" saturated.
+                    summary.possibly_saturated &= matches!(
+                        self.specs[c].kind,
+                        crate::units::Kind::Gyro | crate::units::Kind::Accel
+                    );
+                    ChannelQuality {
+                        name: name.clone(),
+                        nonfinite_samples: self.nonfinite[c],
+                        first_nonfinite_row: self.first_nonfinite[c],
+                        interpolated_samples: self.interpolated[c],
+                        verdicts: verdicts(&self.specs[c], &summary),
+                        summary,
+                    }
                 })
                 .collect(),
         };

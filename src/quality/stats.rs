@@ -33,6 +33,8 @@ pub struct ChannelSummary {
     /// Samples equal to the minimum / maximum: many of them mean a clipped (saturated) sensor.
     pub samples_at_min: u64,
     pub samples_at_max: u64,
+    /// Many samples at an extreme (see [`ChannelSummary::samples_at_min`]); as reported, judged
+    /// on gyro and accelerometer channels only (false on the others).
     pub possibly_saturated: bool,
     /// Smallest non-zero difference between consecutive samples: the quantisation step of an
     /// integer-coded sensor (in SI units), an upper bound of it otherwise.

@@ -9,7 +9,13 @@
 //!   is listed in a comment;
 //! - the combined value where the term is kept; where it is not, the combined upper limit of
 //!   summary.md (the term's home fit's bound, within what the measured Allan curve allows),
-//!   marked, rather than 0: a filter told "no bias walk" trusts its bias forever;
+//!   marked with its level, rather than 0: a filter told "no bias walk" trusts its bias forever;
+//! - every axis's interval in the comments, and beside each key the largest upper end over the
+//!   axes (an interval's, or an upper limit): the cautious value. A random walk from a 2-h
+//!   record is uncertain by a factor of 1.5–2 (on 13 simulated 2-h records of a 200-Hz MEMS
+//!   IMU the gyro key read 0.60–2.1× the truth), and a 1σ upper limit lies below the truth in
+//!   one record of six: the key alone ("upper limit", 0.87× the truth) had read as a bound;
+//! - ASCII only (the level written "1-sigma"): some YAML readers take the file as Latin-1;
 //! - a channel the quality screen flagged (saturated, frozen, gravity in another unit, ...) is
 //!   listed with its verdict but is not the worst axis while an unflagged axis of the sensor has
 //!   a value: a clipped accelerometer's random walk (26 times the truth) had gone into the file
@@ -29,9 +35,30 @@ use crate::model::{CoefUnit, FitWarning, Sensor, Term};
 use crate::quality::QualityReport;
 
 use super::format::sig;
+use super::summary::confidence_text;
 
-/// The value Kalibr gets for `term` of one channel: (SI value, is an upper limit, domain).
-fn value_of(a: &ChannelAnalysis, term: Term) -> Option<(f64, bool, &'static str)> {
+/// The value Kalibr gets for `term` of one channel.
+#[derive(Debug, Clone, Copy)]
+struct AxisValue {
+    /// SI.
+    value: f64,
+    /// The combined interval at the run's confidence (`None` for an upper limit, or a value
+    /// without one).
+    interval: Option<(f64, f64)>,
+    /// The term is not significant: `value` is its upper limit.
+    upper: bool,
+    domain: &'static str,
+}
+
+impl AxisValue {
+    /// The largest value the axis allows: its interval's upper end, or its upper limit.
+    fn upper_end(&self) -> f64 {
+        self.interval
+            .map_or(self.value, |(_, hi)| hi.max(self.value))
+    }
+}
+
+fn value_of(a: &ChannelAnalysis, term: Term) -> Option<AxisValue> {
     // A filter sees every sample: where the spikes removed were the tail of the noise itself
     // (heavy-tailed noise, or glitches reaching down into it), its N is the one with them.
     let with_tail = a.combined.warnings.iter().find_map(|w| match w {
@@ -39,23 +66,41 @@ fn value_of(a: &ChannelAnalysis, term: Term) -> Option<(f64, bool, &'static str)
         _ => None,
     });
     if let Some(n) = with_tail.filter(|n| n.is_finite()) {
-        return Some((n, false, "combined, with the heavy tail's spikes"));
+        return Some(AxisValue {
+            value: n,
+            interval: None,
+            upper: false,
+            domain: "combined, with the heavy tail's spikes",
+        });
     }
     if let Some(c) = a.combined.get(term) {
-        return Some((c.value, false, "combined"));
+        return Some(AxisValue {
+            value: c.value,
+            interval: Some((c.lo, c.hi)).filter(|(lo, hi)| lo.is_finite() && hi.is_finite()),
+            upper: false,
+            domain: "combined",
+        });
     }
-    a.combined
-        .limit(term)
-        .map(|upper| (upper, true, "combined"))
+    a.combined.limit(term).map(|upper| AxisValue {
+        value: upper,
+        interval: None,
+        upper: true,
+        domain: "combined",
+    })
 }
 
-/// `4.3630e-5 rad/s/sqrt(Hz) (combined)`: the value in the SI unit of its term.
-fn describe(v: Option<(f64, bool, &'static str)>, sensor: Sensor, term: Term) -> String {
+/// `4.3630e-5 [4.3500e-5, 4.3760e-5] rad/s/sqrt(Hz) (combined)`: the value in the SI unit of
+/// its term, with its interval.
+fn describe(v: Option<AxisValue>, sensor: Sensor, term: Term) -> String {
     match v {
-        Some((x, upper, domain)) => format!(
-            "{}{x:.4e} {} ({domain})",
-            if upper { "< " } else { "" },
-            CoefUnit::si(sensor, term).label()
+        Some(v) => format!(
+            "{}{:.4e}{} {} ({})",
+            if v.upper { "< " } else { "" },
+            v.value,
+            v.interval
+                .map_or(String::new(), |(lo, hi)| format!(" [{lo:.4e}, {hi:.4e}]")),
+            CoefUnit::si(sensor, term).label(),
+            v.domain
         ),
         None => "not available".into(),
     }
@@ -116,6 +161,8 @@ pub fn imu_yaml(
         out,
         "#   1/sqrt(update_rate) to get discrete-time standard deviations.)"
     );
+    // ASCII: some YAML readers take the file as Latin-1.
+    let level = confidence_text(analysis).replace('σ', "-sigma");
     let _ = writeln!(
         out,
         "# Each value is the worst (largest) axis of the combined estimate (summary.md says"
@@ -126,7 +173,23 @@ pub fn imu_yaml(
     );
     let _ = writeln!(
         out,
-        "# its upper limit (marked '<' below). Inflate for your filter as you see fit."
+        "# its {level} upper limit (marked '<' below), which the truth exceeds about as"
+    );
+    let _ = writeln!(
+        out,
+        "# often as it exceeds an interval's upper end. Intervals are {level}. A random walk"
+    );
+    let _ = writeln!(
+        out,
+        "# from a record of a few hours is uncertain by tens of percent or more: where a"
+    );
+    let _ = writeln!(
+        out,
+        "# filter must not be over-confident, the largest upper end over the axes (beside"
+    );
+    let _ = writeln!(
+        out,
+        "# each key) is the cautious value. Inflate further for your filter as you see fit."
     );
     let mut keys = Vec::new();
     for (sensor, prefix) in [
@@ -165,25 +228,45 @@ pub fn imu_yaml(
             (Term::RandomWalk, "noise_density"),
             (Term::RateRandomWalk, "random_walk"),
         ] {
-            let values = |clean: bool| {
+            let axes = |clean: bool| {
                 channels
                     .iter()
                     .filter(move |a| !clean || flagged(&a.channel).is_none())
                     .filter_map(|a| value_of(a, term).map(|v| (v, &a.channel)))
-                    .filter(|(v, _)| v.0.is_finite())
-                    .max_by(|a, b| a.0 .0.total_cmp(&b.0 .0))
+                    .filter(|(v, _)| v.value.is_finite())
             };
-            match (values(true), values(false)) {
-                (Some(((v, upper, domain), channel)), _) => keys.push(format!(
-                    "{prefix}_{key}: {v:.6e}  # {} {channel}, {domain}{}",
-                    if upper { "upper limit," } else { "worst axis" },
-                    if upper { " (not significant)" } else { "" }
+            let worst = |clean: bool| axes(clean).max_by(|a, b| a.0.value.total_cmp(&b.0.value));
+            // The cautious value beside the key: the largest upper end over the same axes.
+            let cautious = axes(true)
+                .max_by(|a, b| a.0.upper_end().total_cmp(&b.0.upper_end()))
+                .map_or(String::new(), |(v, channel)| {
+                    format!(
+                        "; largest {level} upper end over the axes {:.4e} ({channel})",
+                        v.upper_end()
+                    )
+                });
+            match (worst(true), worst(false)) {
+                (Some((v, channel)), _) => keys.push(format!(
+                    "{prefix}_{key}: {:.6e}  # {} {channel}, {}{}{cautious}",
+                    v.value,
+                    if v.upper {
+                        format!("{level} upper limit,")
+                    } else {
+                        "worst axis".into()
+                    },
+                    v.domain,
+                    match (v.upper, v.interval) {
+                        (true, _) => " (not significant)".into(),
+                        (false, Some((lo, hi))) => format!(" [{lo:.4e}, {hi:.4e}]"),
+                        (false, None) => String::new(),
+                    }
                 )),
-                (None, Some(((v, upper, _), channel))) => keys.push(format!(
-                    "# {prefix}_{key}: {}{v:.6e}  # NOT WRITTEN: every {prefix} axis with a \
+                (None, Some((v, channel))) => keys.push(format!(
+                    "# {prefix}_{key}: {}{:.6e}  # NOT WRITTEN: every {prefix} axis with a \
                      value is flagged by the quality screen ({channel}: {}); fix the input, or \
                      uncomment the key if you accept the value",
-                    if upper { "< " } else { "" },
+                    if v.upper { "< " } else { "" },
+                    v.value,
                     flagged(channel).unwrap_or_default()
                 )),
                 (None, None) => keys.push(format!("# {prefix}_{key}: no fit succeeded")),

@@ -369,7 +369,8 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
     }
 }
 
-fn confidence_text(analysis: &[ChannelAnalysis]) -> String {
+/// The run's confidence level in words: "1σ (68.3 %)" or "95.0 %".
+pub(super) fn confidence_text(analysis: &[ChannelAnalysis]) -> String {
     let p = analysis
         .iter()
         .find_map(|a| a.allan_fit().or(a.spectrum_fit()))

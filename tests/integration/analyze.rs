@@ -138,6 +138,17 @@ fn simulate_then_analyze_recovers_the_coefficients_in_every_output() {
         (value("gyroscope_random_walk") / k_si - 1.0).abs() < 0.25,
         "{yaml}"
     );
+    // Beside each key, its interval and the cautious value: the largest upper end over the
+    // axes, which no key's value exceeds.
+    for key in ["gyroscope_noise_density", "gyroscope_random_walk"] {
+        let line = yaml.lines().find(|l| l.starts_with(key)).unwrap();
+        let (_, cautious) = line
+            .split_once("upper end over the axes ")
+            .unwrap_or_else(|| panic!("{line}"));
+        let cautious: f64 = cautious.split(' ').next().unwrap().parse().unwrap();
+        assert!(cautious >= value(key), "{line}");
+    }
+    assert!(yaml.is_ascii(), "{yaml}");
     assert_eq!(value("update_rate"), 50.0);
     assert!(!yaml.contains("accelerometer_noise_density:"), "{yaml}");
     assert!(yaml.contains("CONTINUOUS-TIME"));

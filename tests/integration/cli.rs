@@ -628,6 +628,32 @@ fn analyze_labels_every_coefficient_amplitude_and_legend_with_its_unit() {
     );
 }
 
+/// A temperature in 0.125 °C steps that warms up and stays at its last level holds its maximum
+/// for many samples: a slow sensor, not a clipped one (saturation is judged on gyros and
+/// accelerometers only; `info` had listed it as "possibly" saturated).
+#[test]
+fn a_warmed_up_temperature_is_not_saturated() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.csv");
+    let mut text = String::from("time [s],g [rad/s],temperature [degC]\n");
+    for i in 0..4000u32 {
+        let t = f64::from(i) / 100.0;
+        let temp = ((25.0 + 2.0 * (1.0 - (-t / 8.0).exp())) / 0.125).round() * 0.125;
+        let g = (f64::from(i * 7919 % 1000) - 500.0) * 1e-5;
+        text.push_str(&format!("{t},{g},{temp}\n"));
+    }
+    std::fs::write(&path, text).unwrap();
+    let out = imunoise(&["info", path.to_str().unwrap()], dir.path());
+    assert_eq!(out.status.code(), Some(0));
+    let table = String::from_utf8_lossy(&out.stdout);
+    let row = table
+        .lines()
+        .find(|l| l.trim_start().starts_with("temperature "))
+        .unwrap_or_else(|| panic!("{table}"));
+    assert!(row.trim_end().ends_with(" no"), "{row}");
+    assert!(!table.contains("possibly"), "{table}");
+}
+
 /// `imunoise info FILE` printed nothing on stdout and wrote an `imunoise-out` folder.
 #[test]
 fn info_prints_a_table_and_writes_files_only_when_asked() {

@@ -965,6 +965,37 @@ fn malformed_csv_records_name_row_and_line() {
             ("field.linear_acceleration.z", imunoise::units::Kind::Accel)
         ]
     );
+    // PlotJuggler's export of the same topics: `__time`, the topic before each field's path
+    // with `/` between the parts; the temperature topic's field in °C.
+    let mut text = String::from(
+        "__time,/imu/header/seq,/imu/orientation/w,/imu/angular_velocity/z,\
+         /imu/angular_velocity_covariance/0,/imu/linear_acceleration/x,/imu_temp/temperature\n",
+    );
+    for i in 0..200u64 {
+        text.push_str(&format!(
+            "{},{i},1.0,{},0.0,0.1,25.5\n",
+            1_700_000_000.0 + i as f64 * 0.005,
+            i % 7
+        ));
+    }
+    std::fs::write(&path, text).unwrap();
+    let r = io::open(&path, &OpenOptions::default()).unwrap();
+    assert_eq!(r.time.as_ref().map(|t| t.name.as_str()), Some("__time"));
+    // (Float epoch seconds resolve 2.4e-7 s: the rate from their intervals is 200.000003.)
+    assert!((r.rate_hz - 200.0).abs() < 1e-4, "{}", r.rate_hz);
+    let got: Vec<(&str, imunoise::units::Kind)> = r
+        .channels
+        .iter()
+        .map(|c| (c.name.as_str(), c.kind))
+        .collect();
+    assert_eq!(
+        got,
+        [
+            ("/imu/angular_velocity/z", imunoise::units::Kind::Gyro),
+            ("/imu/linear_acceleration/x", imunoise::units::Kind::Accel),
+            ("/imu_temp/temperature", imunoise::units::Kind::Temperature)
+        ]
+    );
     // ... and before a `#` preamble, which is still a comment that gives the rate.
     let mut bytes = "\u{feff}# sample_rate_hz: 40\ng [rad/s]\n"
         .as_bytes()
