@@ -44,7 +44,7 @@ use crate::units::Unit;
 use crate::Error;
 
 /// Version of the JSON document and table layout; bumped on any incompatible change.
-pub const SCHEMA_VERSION: u32 = 11;
+pub const SCHEMA_VERSION: u32 = 12;
 
 /// Output formats for tables and the document.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

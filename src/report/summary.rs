@@ -331,12 +331,14 @@ fn combined_section(out: &mut String, analysis: &[ChannelAnalysis]) {
             );
             notes.push(match b.cause {
                 BandEdge::LowPass => format!(
-                    "{}: {} detected ({} form, {:.0} dB/decade envelope, ΔBIC {:.0}); {band}",
+                    "{}: {} detected ({}, {:.0} dB/decade envelope, ΔBIC {:.0}); {band}",
                     a.channel,
                     super::lowpass_text(&b.lowpass),
                     match b.lowpass.form {
-                        crate::model::FilterForm::Analog => "analog",
-                        crate::model::FilterForm::Digital { .. } => "digital",
+                        crate::model::FilterForm::Analog => "analog form",
+                        crate::model::FilterForm::Digital { .. } => "digital form",
+                        crate::model::FilterForm::Sampled { .. } =>
+                            "analog form sampled with its tail folded back",
                     },
                     b.slope_db_per_decade,
                     b.delta_bic,

@@ -70,7 +70,7 @@ fn simulate_then_analyze_recovers_the_coefficients_in_every_output() {
     );
     let doc: Value =
         serde_json::from_slice(&std::fs::read(out_dir.join("report.json")).unwrap()).unwrap();
-    assert_eq!(doc["schema_version"], 11);
+    assert_eq!(doc["schema_version"], 12);
     let analysis = doc["files"][0]["analysis"].as_array().unwrap();
     assert_eq!(analysis.len(), 2);
     for a in analysis {

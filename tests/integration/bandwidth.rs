@@ -514,3 +514,60 @@ fn an_independent_sigma_delta_gyro_is_read_as_its_chain() {
         assert!((n / want - 1.0).abs() < 0.03, "{name}: N {n:e} vs {want:e}");
     }
 }
+
+/// An analog filter sampled with nothing more to stop its tail (a part that filters at 800 Hz and
+/// keeps every 8th sample): the tail above Nyquist folds back and the spectrum rises towards
+/// Nyquist from the analog form's. Read in the sampled form at its corner; N the output's white
+/// level, aliased noise included, as the Allan deviation reads it. In the analog form the corner
+/// had come out 5 % low and the folded noise at the Allan fit's shortest τ had been taken for
+/// angle quantisation.
+#[test]
+fn an_analog_filter_sampled_without_anti_aliasing_is_read_folded() {
+    let fast = FS * 8.0;
+    for (seed, corner_hz) in [(71, 30.0), (72, 25.0)] {
+        let spec = json!({ "rate_hz": fast, "duration_s": 1800.0, "seed": seed,
+            "channels": [{ "name": "g", "sensor": "gyro", "noise": truth(),
+                "lowpass": { "corner_hz": corner_hz, "order": 2 } }] });
+        let spec: SimSpec = serde_json::from_value(spec).unwrap();
+        let y: Vec<f64> = simulate(&spec).unwrap().channels.remove(0).samples;
+        let y: Vec<f64> = y.iter().step_by(8).copied().collect();
+        let o = close_loop(&y, FS, &[], &config(), None).expect("loop ran");
+        let b = o.report.bandwidth.expect("roll-off found");
+        println!(
+            "{corner_hz} Hz: {:?} order {} at {:.2} Hz, band f ≤ {:.2} Hz, τ ≥ {:?} s",
+            b.lowpass.form,
+            b.lowpass.order,
+            b.lowpass.corner_hz,
+            b.fit_max_freq_hz,
+            b.fit_min_tau_s
+        );
+        assert_eq!(b.lowpass.form, FilterForm::Sampled { rate_hz: FS }, "{b:?}");
+        assert_eq!(b.lowpass.order, 2, "{b:?}");
+        assert!(
+            (b.lowpass.corner_hz / corner_hz - 1.0).abs() < 0.03,
+            "{b:?}"
+        );
+        // The output's white level: the sensor's N times the folded gain at 0 Hz.
+        let images: f64 = (-2..=2)
+            .map(|k: i32| 1.0 / (1.0 + (f64::from(k) * FS / corner_hz).powi(4)))
+            .sum();
+        let n_out = truth().n * images.sqrt();
+        for fit in [o.allan.as_ref(), o.spectrum.as_ref()] {
+            let fit = fit.expect("fit");
+            let n = fit.get(Term::RandomWalk).expect("N kept");
+            assert!(
+                (n.value / n_out - 1.0).abs() < 0.01,
+                "{:?}: {n:?} vs {n_out}",
+                fit.domain
+            );
+            // No angle quantisation made of the folded noise.
+            assert!(
+                fit.get(Term::Quantization)
+                    .is_none_or(|q| q.one_sigma.0 <= 0.0),
+                "{:?}: {:?}",
+                fit.domain,
+                fit.get(Term::Quantization)
+            );
+        }
+    }
+}

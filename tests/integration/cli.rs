@@ -24,7 +24,7 @@ fn info_on_the_sample_reports_rate_units_channels_and_duration() {
         String::from_utf8_lossy(&out.stderr)
     );
     let doc = json_of(&out);
-    assert_eq!(doc["schema_version"], 11);
+    assert_eq!(doc["schema_version"], 12);
     assert_eq!(doc["command"], "info");
     let file = &doc["files"][0];
     assert_eq!(file["status"], "ok");
