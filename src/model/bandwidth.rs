@@ -532,9 +532,19 @@ pub fn detect_bandwidth(
         let searched = lp
             .decimator
             .map(|d| decimators.iter().position(|&e| e == d));
+        // The sampled form's gain at 0 Hz, which its response is taken relative to: once per
+        // trial, not per sample.
+        let sampled = match lp.form {
+            FilterForm::Sampled { rate_hz } => {
+                let at = |image: f64| lp.gain_at_ratio(image / lp.corner_hz);
+                Some((rate_hz, folded(0.0, rate_hz, at)))
+            }
+            _ => None,
+        };
         let gain = |band: usize, k: usize| {
-            if matches!(lp.form, FilterForm::Sampled { .. }) {
-                return lp.power_gain(samples[band][k].0);
+            if let Some((rate_hz, at_zero)) = sampled {
+                let at = |image: f64| lp.gain_at_ratio(image / lp.corner_hz);
+                return folded(samples[band][k].0, rate_hz, at) / at_zero;
             }
             let g = lp.gain_at_ratio(axes[band][k][form] / corner);
             match searched {
