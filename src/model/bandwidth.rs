@@ -10,7 +10,9 @@
 //! N added) is refitted with every column but quantisation's (the output is rounded after the
 //! filter) multiplied by a Butterworth-type power gain |H(f)|² = 1/(1 + (f/f_c)^(2n)) (an analog
 //! filter) or its bilinear digital form with tan(πf/fs) for f (a digital low-pass at the output
-//! rate, which reaches zero at Nyquist), or a sinc^k decimator's folded response
+//! rate, which reaches zero at Nyquist), or the analog form sampled with its tail above Nyquist
+//! folded back ([`FilterForm::Sampled`]: a part that decimates without a further filter, whose
+//! spectrum rises back towards Nyquist), or a sinc^k decimator's folded response
 //! ([`Decimator`], k ∈ {2, 3, 4, 5}: the CIC filter of sigma-delta MEMS parts, whose droop grows
 //! as f² from DC and which no Butterworth shape follows) alone or times a digital low-pass of
 //! order 1–4. Every family (form, order, decimator) is scored on a grid of corners f_c (8 per
