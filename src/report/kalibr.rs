@@ -282,8 +282,33 @@ pub fn imu_yaml(
         let _ = writeln!(out, "{k}");
     }
     let _ = writeln!(out, "rostopic: {topic}");
-    // Kalibr reads the nominal rate: a rate measured from jittered stamps (199.99999998) is given
-    // to a millionth of a hertz.
-    let _ = writeln!(out, "update_rate: {:?}", (rate_hz * 1e6).round() / 1e6);
+    let _ = writeln!(out, "update_rate: {:?}", nominal_rate(rate_hz));
     out
+}
+
+/// The rate Kalibr reads, to six significant digits: a rate measured from jittered stamps
+/// (199.99999998 over 2 h, 199.999999 over 10 min) is the nominal one within parts per million,
+/// far below what the noise densities' √rate conversion can tell.
+fn nominal_rate(rate_hz: f64) -> f64 {
+    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+        return rate_hz;
+    }
+    let scale = 10f64.powi(6 - rate_hz.log10().ceil() as i32);
+    (rate_hz * scale).round() / scale
+}
+
+#[cfg(test)]
+mod tests {
+    use super::nominal_rate;
+
+    #[test]
+    fn the_update_rate_has_six_significant_digits() {
+        assert_eq!(nominal_rate(199.999999), 200.0);
+        assert_eq!(nominal_rate(199.99999998), 200.0);
+        assert_eq!(nominal_rate(100.0), 100.0);
+        assert_eq!(nominal_rate(207.0), 207.0);
+        assert_eq!(nominal_rate(1000.0), 1000.0);
+        assert_eq!(nominal_rate(399.98712), 399.987);
+        assert_eq!(nominal_rate(1.0001234), 1.00012);
+    }
 }
