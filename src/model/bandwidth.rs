@@ -187,13 +187,20 @@ impl LowPass {
     /// summed over its images).
     pub fn power_gain(&self, f_hz: f64) -> f64 {
         if let FilterForm::Sampled { rate_hz } = self.form {
-            let gain = |image: f64| self.gain_at_ratio(image / self.corner_hz);
-            // Relative to its value at 0 Hz: N is the white level the output holds at low
-            // frequency, aliased noise included (what the Allan deviation at 1 s reads and a
-            // navigation filter sees), as for the other forms, whose gain there is 1.
-            return folded(f_hz, rate_hz, gain) / folded(0.0, rate_hz, gain);
+            return self.sampled_response(rate_hz)(f_hz);
         }
         self.gain_at_ratio(self.ratio(f_hz)) * self.decimator_gain(f_hz)
+    }
+
+    /// The sampled form's |H(f)|²: the analog response summed over its images ([`folded`]),
+    /// relative to that sum at 0 Hz, which is computed once here (the detection evaluates one
+    /// trial's response at thousands of frequencies). Relative to 0 Hz: N is the white level the
+    /// output holds at low frequency, aliased noise included (what the Allan deviation at 1 s
+    /// reads and a navigation filter sees), as for the other forms, whose gain there is 1.
+    fn sampled_response(&self, rate_hz: f64) -> impl Fn(f64) -> f64 + '_ {
+        let at = move |image: f64| self.gain_at_ratio(image / self.corner_hz);
+        let at_zero = folded(0.0, rate_hz, at);
+        move |f_hz| folded(f_hz, rate_hz, at) / at_zero
     }
 
     /// The decimator's folded response at f (1 without one).
@@ -534,19 +541,14 @@ pub fn detect_bandwidth(
         let searched = lp
             .decimator
             .map(|d| decimators.iter().position(|&e| e == d));
-        // The sampled form's gain at 0 Hz, which its response is taken relative to: once per
-        // trial, not per sample.
+        // The sampled form's response, its normalisation made once per trial.
         let sampled = match lp.form {
-            FilterForm::Sampled { rate_hz } => {
-                let at = |image: f64| lp.gain_at_ratio(image / lp.corner_hz);
-                Some((rate_hz, folded(0.0, rate_hz, at)))
-            }
+            FilterForm::Sampled { rate_hz } => Some(lp.sampled_response(rate_hz)),
             _ => None,
         };
         let gain = |band: usize, k: usize| {
-            if let Some((rate_hz, at_zero)) = sampled {
-                let at = |image: f64| lp.gain_at_ratio(image / lp.corner_hz);
-                return folded(samples[band][k].0, rate_hz, at) / at_zero;
+            if let Some(response) = &sampled {
+                return response(samples[band][k].0);
             }
             let g = lp.gain_at_ratio(axes[band][k][form] / corner);
             match searched {

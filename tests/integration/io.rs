@@ -935,6 +935,13 @@ fn malformed_csv_records_name_row_and_line() {
     let r = io::open(&path, &OpenOptions::default()).unwrap();
     assert_eq!(r.rate_hz, 50.0);
     assert_eq!(r.time.as_ref().map(|t| t.name.as_str()), Some("time"));
+    // The channels read, with their kinds.
+    let kinds = |r: &io::Recording| -> Vec<(String, imunoise::units::Kind)> {
+        r.channels
+            .iter()
+            .map(|c| (c.name.clone(), c.kind))
+            .collect()
+    };
     // A ROS topic's CSV export: the sensor's stamp, not the receive time `%time` before it; the
     // units sensor_msgs/Imu defines; no sequence number, orientation or covariance as channels.
     let mut text = String::from(
@@ -953,16 +960,17 @@ fn malformed_csv_records_name_row_and_line() {
         Some("field.header.stamp")
     );
     assert_eq!(r.rate_hz, 50.0);
-    let got: Vec<(&str, imunoise::units::Kind)> = r
-        .channels
-        .iter()
-        .map(|c| (c.name.as_str(), c.kind))
-        .collect();
     assert_eq!(
-        got,
+        kinds(&r),
         [
-            ("field.angular_velocity.x", imunoise::units::Kind::Gyro),
-            ("field.linear_acceleration.z", imunoise::units::Kind::Accel)
+            (
+                "field.angular_velocity.x".into(),
+                imunoise::units::Kind::Gyro
+            ),
+            (
+                "field.linear_acceleration.z".into(),
+                imunoise::units::Kind::Accel
+            )
         ]
     );
     // PlotJuggler's export of the same topics: `__time`, the topic before each field's path
@@ -983,17 +991,21 @@ fn malformed_csv_records_name_row_and_line() {
     assert_eq!(r.time.as_ref().map(|t| t.name.as_str()), Some("__time"));
     // (Float epoch seconds resolve 2.4e-7 s: the rate from their intervals is 200.000003.)
     assert!((r.rate_hz - 200.0).abs() < 1e-4, "{}", r.rate_hz);
-    let got: Vec<(&str, imunoise::units::Kind)> = r
-        .channels
-        .iter()
-        .map(|c| (c.name.as_str(), c.kind))
-        .collect();
     assert_eq!(
-        got,
+        kinds(&r),
         [
-            ("/imu/angular_velocity/z", imunoise::units::Kind::Gyro),
-            ("/imu/linear_acceleration/x", imunoise::units::Kind::Accel),
-            ("/imu_temp/temperature", imunoise::units::Kind::Temperature)
+            (
+                "/imu/angular_velocity/z".into(),
+                imunoise::units::Kind::Gyro
+            ),
+            (
+                "/imu/linear_acceleration/x".into(),
+                imunoise::units::Kind::Accel
+            ),
+            (
+                "/imu_temp/temperature".into(),
+                imunoise::units::Kind::Temperature
+            )
         ]
     );
     // ... and before a `#` preamble, which is still a comment that gives the rate.

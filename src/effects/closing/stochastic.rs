@@ -247,8 +247,8 @@ pub(super) fn resonance_candidate(
     // search's), the optimum moves there and both grids are made again around it (at most
     // three times): profiles through a point that is not the optimum held no point within the
     // threshold of the best score, and Q's interval came out as the single point [12.4, 12.4].
-    let (mut by_q, mut f_points) = grids(f0, q);
-    q_points.extend(std::mem::take(&mut by_q));
+    let (by_q, mut f_points) = grids(f0, q);
+    q_points.extend(by_q);
     for _ in 0..3 {
         let moved = q_points
             .iter()
