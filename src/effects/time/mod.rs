@@ -24,6 +24,7 @@
 //! recovery are in each module's tests (`cargo test --lib effects::time -- --nocapture`).
 
 pub mod coupling;
+pub mod extrapolate;
 pub mod imputation;
 pub mod narrowband;
 pub mod sinusoid;
