@@ -124,7 +124,9 @@ pub struct FitFlags {
     #[arg(long, value_name = "HZ")]
     pub fit_min_freq: Option<f64>,
 
-    /// Highest spectrum band used by the fit, Hz (default: up to Nyquist).
+    /// Highest spectrum band used by the fit, Hz (default: up to Nyquist). The Allan fit then
+    /// starts where white noise above HZ would make up at most 2 % of the Allan variance
+    /// (τ ≥ 7.6/HZ).
     #[arg(long, value_name = "HZ")]
     pub fit_max_freq: Option<f64>,
 

@@ -275,25 +275,9 @@ impl LowPass {
     /// The fraction by which white noise through the filter reads low in the Allan variance at
     /// τ = m/fs (see the module docs).
     pub fn white_avar_bias(&self, rate_hz: f64, m: u64) -> f64 {
-        let nyquist = rate_hz / 2.0;
         // Below `start` the filter loses less than 1e-9 of the power: nothing to integrate.
-        let start = self.edge_hz(1e-9).min(nyquist);
-        if start >= nyquist {
-            return 0.0;
-        }
-        let mf = m as f64;
-        // 32 points per period fs/m of sin⁴(πfm/fs), at least 4096.
-        let points = ((32.0 * mf * (nyquist - start) / rate_hz) as usize).max(4096);
-        let step = (nyquist - start) / points as f64;
-        let sum: f64 = (0..points)
-            .map(|i| {
-                let f = start + (i as f64 + 0.5) * step;
-                let u = std::f64::consts::PI * f / rate_hz;
-                let t = (u * mf).sin().powi(4) / (mf * mf * u.sin().powi(2));
-                (1.0 - self.power_gain(f)) * t
-            })
-            .sum();
-        (4.0 * mf / rate_hz * sum * step).clamp(0.0, 1.0)
+        let start = self.edge_hz(1e-9);
+        white_avar_share(rate_hz, m, start, |f| 1.0 - self.power_gain(f))
     }
 
     /// 1 − [`LowPass::white_avar_bias`]: the share of white noise's Allan variance at τ = m/fs
@@ -403,6 +387,55 @@ impl Bandwidth {
         out.lowpass = self.is_filter().then_some(self.lowpass);
         out
     }
+}
+
+/// The share of white noise's Allan variance at τ = m/fs that frequencies from `start` Hz to
+/// Nyquist carry, each weighted by `weight(f)` (a filter's lost power 1 − |H|², or 1 above a
+/// band's edge): (4m/fs)·∫ weight(f)·sin⁴(πfm/fs)/(m²·sin²(πf/fs)) df, the Allan transfer
+/// function of the sampled series against its white density.
+fn white_avar_share(rate_hz: f64, m: u64, start: f64, weight: impl Fn(f64) -> f64) -> f64 {
+    let nyquist = rate_hz / 2.0;
+    if start >= nyquist {
+        return 0.0;
+    }
+    let start = start.max(0.0);
+    let mf = m as f64;
+    // 32 points per period fs/m of sin⁴(πfm/fs), at least 4096.
+    let points = ((32.0 * mf * (nyquist - start) / rate_hz) as usize).max(4096);
+    let step = (nyquist - start) / points as f64;
+    let sum: f64 = (0..points)
+        .map(|i| {
+            let f = start + (i as f64 + 0.5) * step;
+            let u = std::f64::consts::PI * f / rate_hz;
+            let t = (u * mf).sin().powi(4) / (mf * mf * u.sin().powi(2));
+            weight(f) * t
+        })
+        .sum();
+    (4.0 * mf / rate_hz * sum * step).clamp(0.0, 1.0)
+}
+
+/// The shortest τ of `taus_s` from which the Allan fit answers for the band below `max_freq_hz`
+/// only: where white noise above that frequency carries at most [`BAND_BIAS`] of the Allan
+/// variance (about τ ≥ 7.6/f; the bias a detected filter's edge may leave). A user who keeps the
+/// spectrum fit below a frequency (`--fit-max-freq`, to leave out a rotor's lines, say) keeps
+/// the Allan fit from the τ that do not see above it: at τ = 1 ms a 1-kHz record's Allan
+/// variance holds every line up to Nyquist, and a line at 192 Hz beyond a 100-Hz band was read
+/// there as a Gauss–Markov process (ΔBIC −2·10⁵).
+///
+/// The rule is white noise's, not the measured spectrum's: strong lines above the band (0.3 m/s²
+/// at 83 and 166 Hz over 90 µg/√Hz on a flight controller's accelerometer) would move the
+/// measured rule's start to tens of seconds, where the Allan fit no longer sees N, and the
+/// time-domain detectors, which take their null from the fitted model, then found excursions
+/// and steps in white noise (4 on one channel). What the lines leave in the Allan variance
+/// beyond the start is what the loop's narrow bands take out of the series. `None` when no τ of
+/// the grid qualifies.
+pub fn band_min_tau(max_freq_hz: f64, rate_hz: f64, taus_s: &[f64]) -> Option<f64> {
+    let mut sorted: Vec<f64> = taus_s.iter().copied().filter(|t| *t > 0.0).collect();
+    sorted.sort_by(f64::total_cmp);
+    sorted.into_iter().find(|&tau| {
+        let m = (tau * rate_hz).round().max(1.0) as u64;
+        white_avar_share(rate_hz, m, max_freq_hz, |_| 1.0) <= BAND_BIAS
+    })
 }
 
 /// −2·log-likelihood of the IRLS fit of `mask` on `problem` (∞ if it fails).

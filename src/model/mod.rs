@@ -82,7 +82,7 @@ mod units;
 pub use avar_fit::{fit_avar, fit_avar_with, fit_points, FIT_TAU_RATIO};
 pub use average::{average_with_rival, rival_share};
 pub use bandwidth::{
-    detect_bandwidth, BandEdge, Bandwidth, FilterForm, LowPass, BAND_BIAS, DETECT_BIC,
+    band_min_tau, detect_bandwidth, BandEdge, Bandwidth, FilterForm, LowPass, BAND_BIAS, DETECT_BIC,
 };
 pub use combine::{
     combine, heavy_tail_line, not_static_line, read_offs, resolution_line, upper_limit, Combined,
