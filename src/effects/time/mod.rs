@@ -42,7 +42,7 @@ pub use narrowband::{
 pub use sinusoid::{fit_sinusoid, remove_sinusoid, SineFit};
 pub use spikes::{find_spikes, find_spikes_on_grid, remove_spikes, Spikes};
 pub use stationarity::{split_record, SplitRecord};
-pub use step::{find_step, remove_step, Step, StepMethod};
+pub use step::{find_step, remove_step, Persistence, Step, StepMethod};
 
 #[cfg(test)]
 mod tests {
