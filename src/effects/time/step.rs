@@ -455,8 +455,8 @@ mod tests {
     }
 
     /// A knock (a ring at 38 Hz, 40 white σ, decaying over 0.25 s) that the scan reads as a
-    /// significant jump (in 5 of the 6 records of the three noise profiles) does not last: the
-    /// means 10 s either side, 2 s away, refute it. A planted step (20 B, as in
+    /// significant jump (in each of the 6 records of the three noise profiles here; at least 5
+    /// asked) does not last: the means 10 s either side, 2 s away, refute it. A planted step (20 B, as in
     /// `planted_step_is_found`) lasts in every record.
     #[test]
     fn a_knock_does_not_last_and_a_step_does() {
@@ -509,7 +509,8 @@ mod tests {
                 "seed {seed}: {lasting:?} vs {step:?}"
             );
         }
-        assert!(read_as_jumps >= 4, "{read_as_jumps}");
+        println!("read as jumps: {read_as_jumps}");
+        assert!(read_as_jumps >= 5, "{read_as_jumps}");
     }
 
     /// The spans' merged bests are the whole-record coarse scan of each window, for records that
