@@ -85,8 +85,8 @@ pub use bandwidth::{
     band_min_tau, detect_bandwidth, BandEdge, Bandwidth, FilterForm, LowPass, BAND_BIAS, DETECT_BIC,
 };
 pub use combine::{
-    combine, heavy_tail_line, not_static_line, read_offs, resolution_line, upper_limit, Combined,
-    CombinedTerm, FitWarning, ReadOff,
+    combine, heavy_tail_line, not_static_line, read_offs, resolution_line, spike_bursts,
+    upper_limit, Combined, CombinedTerm, FitWarning, ReadOff,
 };
 pub use compare::{compare, TermComparison};
 pub use decimator::Decimator;

@@ -413,12 +413,21 @@ impl LoopReport {
             return None;
         }
         let energy: f64 = tails.iter().flat_map(|s| &s.removal).map(|e| e * e).sum();
+        let times: Vec<f64> = tails
+            .iter()
+            .flat_map(|s| s.times_s.iter().copied())
+            .collect();
+        let (bursts, in_bursts, burst_gap_s) =
+            crate::model::spike_bursts(&times, samples as f64 / rate_hz);
         Some(FitWarning::HeavyTail {
             spikes: tails.iter().map(|s| s.indices.len()).sum(),
             shoulder: first.tail.shoulder,
             shoulder_gaussian: first.tail.shoulder_gaussian,
             n,
             n_with: (n * n + energy / (samples as f64 * rate_hz)).sqrt(),
+            bursts,
+            in_bursts,
+            burst_gap_s,
         })
     }
 }
