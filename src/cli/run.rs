@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use imunoise::estimate::{Backend, CpuBackend};
 use imunoise::gpu::GpuError;
-use imunoise::model::BandEdge;
+use imunoise::model::{BandEdge, FitWarning};
 use imunoise::pipeline::{self, FileResult, Progress};
 use imunoise::report::format::{count, count_as, duration, rate_hz, throughput};
 use imunoise::report::{self, EffectUnits, OutputError};
@@ -272,7 +272,20 @@ pub fn run(job: &Job) -> i32 {
                             "found {}: {}",
                             a.channel,
                             if found.is_empty() {
-                                "nothing beyond the IEEE model".to_string()
+                                // A model the data still reject is not "nothing beyond": the
+                                // loop found nothing of its catalogue that explains the misfit.
+                                let misfit = a
+                                    .combined
+                                    .warnings
+                                    .iter()
+                                    .any(|w| matches!(w, FitWarning::LackOfFit { .. }));
+                                if misfit {
+                                    "no effect of its catalogue explains what the IEEE model \
+                                     misses (the lack of fit above stands)"
+                                        .to_string()
+                                } else {
+                                    "nothing beyond the IEEE model".to_string()
+                                }
                             } else {
                                 found.join("; ")
                             }
