@@ -71,6 +71,12 @@ pub fn fit_in_band(
     opts: &FitOptions,
     series: Series<'_>,
 ) -> BandFits {
+    // The Allan fit's start that a band the user keeps the spectrum fit to asks for
+    // ([`band_min_tau`]); where no τ of the grid qualifies, the Allan fit has no point.
+    let user_floor = opts
+        .max_freq_hz
+        .zip(dev)
+        .map(|(f, d)| band_min_tau(f, d.rate_hz, &d.tau_s).unwrap_or(f64::INFINITY));
     let mut bandwidth = match (binned, opts.detect_bandwidth) {
         (Some(binned), true) => {
             let taus = dev.map_or(&[][..], |d| &d.tau_s[..]);
@@ -87,11 +93,9 @@ pub fn fit_in_band(
                 .map(|mut b| {
                     if let Some(user) = opts.max_freq_hz {
                         b.fit_max_freq_hz = b.fit_max_freq_hz.min(user);
-                        let floor = band_min_tau(user, psd.rate_hz, taus);
-                        b.fit_min_tau_s = match (b.fit_min_tau_s, floor) {
-                            (Some(t), Some(f)) => Some(t.max(f)),
-                            (t, f) => t.or(f),
-                        };
+                    }
+                    if let Some(floor) = user_floor.filter(|f| f.is_finite()) {
+                        b.fit_min_tau_s = Some(b.fit_min_tau_s.map_or(floor, |t| t.max(floor)));
                     }
                     b
                 })
@@ -100,10 +104,7 @@ pub fn fit_in_band(
     };
     let mut unrestricted = opts.clone();
     unrestricted.detect_bandwidth = false;
-    // A band the user keeps the spectrum fit to holds the Allan fit to the τ that do not see
-    // above it ([`band_min_tau`]); where no τ of the grid qualifies, the Allan fit has no point.
-    if let (Some(f), Some(d)) = (opts.max_freq_hz, dev) {
-        let floor = band_min_tau(f, d.rate_hz, &d.tau_s).unwrap_or(f64::INFINITY);
+    if let Some(floor) = user_floor {
         unrestricted.min_tau_s = Some(opts.min_tau_s.map_or(floor, |t| t.max(floor)));
     }
     let inside = |band: Option<&Bandwidth>| {

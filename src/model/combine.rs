@@ -902,6 +902,11 @@ fn at(dev: &Deviations, tau: f64) -> Option<(f64, f64, f64, f64)> {
     ))
 }
 
+/// σ² of `dev` interpolated in log–log at τ ([`at`]); `None` outside its τ grid.
+pub(crate) fn variance_at(dev: &Deviations, tau: f64) -> Option<f64> {
+    at(dev, tau).map(|(v, ..)| v)
+}
+
 /// How far (in log σ per log τ) the curve's local slope may be from a term's for the term's slope
 /// line to be read there.
 const SLOPE_TOLERANCE: f64 = 0.15;

@@ -84,6 +84,7 @@ pub use average::{average_with_rival, rival_share};
 pub use bandwidth::{
     band_min_tau, detect_bandwidth, BandEdge, Bandwidth, FilterForm, LowPass, BAND_BIAS, DETECT_BIC,
 };
+pub(crate) use combine::variance_at;
 pub use combine::{
     combine, heavy_tail_line, not_static_line, read_offs, resolution_line, spike_bursts,
     upper_limit, Combined, CombinedTerm, FitWarning, ReadOff,

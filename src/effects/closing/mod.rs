@@ -613,22 +613,6 @@ fn undetermined_k(fit: &NoiseFit) -> Option<&crate::model::TermEstimate> {
         .filter(|e| e.one_sigma.0 <= 0.0)
 }
 
-/// The Allan variance of `dev` at `tau_s`, interpolated log-log between its neighbours; `None`
-/// outside its τ grid.
-fn avar_near(dev: &Deviations, tau_s: f64) -> Option<f64> {
-    let i = dev.tau_s.iter().position(|&t| t >= tau_s)?;
-    let (t1, v1) = (dev.tau_s[i], dev.variance[i]);
-    if i == 0 || t1 == tau_s {
-        return (t1 == tau_s).then_some(v1);
-    }
-    let (t0, v0) = (dev.tau_s[i - 1], dev.variance[i - 1]);
-    if !(v0 > 0.0 && v1 > 0.0) {
-        return None;
-    }
-    let x = (tau_s / t0).ln() / (t1 / t0).ln();
-    Some((v0.ln() + x * (v1.ln() - v0.ln())).exp())
-}
-
 /// A candidate for this round: its ΔBIC, what it would add, and the evidence.
 struct Candidate<'a> {
     /// Why it may not be added, found beside the candidate itself (a drift that a coupling
@@ -1310,7 +1294,9 @@ fn propose<'a>(
         }
         // A jump the long windows either side do not show was a transient (a knock, a
         // footstep), not a step ([`Persistence`]).
-        let lasting = Persistence::of(y, fs, &step, p, |tau| avar_near(&state.dev, tau));
+        let lasting = Persistence::of(y, fs, &step, p, |tau| {
+            crate::model::variance_at(&state.dev, tau)
+        });
         let veto = lasting.filter(|l| l.refutes(step.size)).map(|l| {
             format!(
                 "not a step: over {:.1} s either side, 2 s or more away, the mean moves by {:.3e} \

@@ -311,8 +311,8 @@ pub(super) fn resonance_candidate(
 
 /// A first-order Gauss–Markov process, profiled over Tc (8 per decade from 10 samples to a tenth
 /// of the record), its ΔBIC charged 2·ln K for the choice among the K grid points; barred where
-/// the profile's best is the grid's shortest Tc (not resolved). Tc is chosen by the two domains' joint ΔBIC, not by the spectrum alone: a
-/// correlation time longer than a Welch segment puts its knee below the spectrum's lowest band,
+/// the profile's best is the grid's shortest Tc (not resolved). Tc is chosen by the two domains'
+/// joint ΔBIC, not by the spectrum alone: a correlation time longer than a Welch segment puts its knee below the spectrum's lowest band,
 /// where only the Allan variance shows it (such processes were missed when the spectrum's own
 /// best Tc, a noise-level improvement at short Tc, decided).
 pub(super) fn gauss_markov_candidate(
@@ -463,8 +463,8 @@ pub(super) fn gauss_markov_candidate(
     // A profile whose best Tc is the grid's shortest has not resolved a process: its knee lies
     // where the sensor's filter, the quantisation and a resonance's skirt shape the spectrum,
     // and there the process served as a flat band that lets the quantisation's f² rise more
-    // steeply (a flight controller's accelerometer, the band kept below 50 Hz under a 68-Hz
-    // resonance: Tc = 10 samples, and N came out 0.63–0.83× the truth beside it).
+    // steeply (a flight controller's accelerometers, the band kept below 50 Hz under a 68-Hz
+    // resonance: Tc = 10 samples on 5 of 6 channels, none of them a process).
     let veto = (restricted_best.tc <= lo * (1.0 + 1e-9)).then(|| {
         format!(
             "not a process: its best correlation time is the search's shortest ({lo:.3} s, 10 \

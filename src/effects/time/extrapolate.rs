@@ -6,19 +6,21 @@
 //! a periodic signal: a line whose phase at the end does not continue into its phase at the
 //! start is, to the transform, a line broken at the wrap, and the edit's impulse response (as long
 //! as the resolution of its gain, about one Welch segment) mixes the two sides. Near each end the
-//! removal then leaves a transient as large as the line itself. Measured on a bench recording of a
-//! flight controller with its motors on (accelerometer line of 0.34 m/s² at 192 Hz over white
-//! noise of 0.066 m/s², band 152–232 Hz, 1 kHz): the residual's rms in the first 20 ms was 0.128
-//! m/s², twice the noise, and 0.053 in the next 20 ms; the residual loop read it as three bias
-//! steps and a spike within 25 ms of the start and stopped at its effect limit.
+//! removal then leaves a transient as large as the line itself. On simulated bench recordings of
+//! a flight controller with its motors on, the residual loop read it as three bias steps and a
+//! spike within 25 ms of an accelerometer record's start and stopped at its effect limit. A line
+//! like that one simulated alone (0.34 m/s² at 192 Hz, wandering ±2 Hz, over white noise of
+//! 0.066 m/s², band 152–232 Hz, 1 kHz) left a residual rms of 0.128 m/s² in the first 20 ms,
+//! twice the noise, and 0.053 in the next 20 ms.
 //!
 //! **What.** Before the edit the record is continued at each end by `pad` samples predicted from
 //! an autoregressive model fitted by Burg's method to the samples nearest that end (backwards at
 //! the start, on the reversed samples). A line, wandering or not, is what such a model predicts
 //! well over the span that matters (its coherence time); the broadband noise's prediction decays
 //! to the local mean. The wrap then falls between two predictions, `pad` samples away from the
-//! record, and the edit's transient dies out before reaching it. In the same test the first
-//! 20 ms kept 0.015 m/s² of residual (the middle of the record: 0.018).
+//! record, and the edit's transient dies out before reaching it. In the same simulation the
+//! first 20 ms kept 0.015 m/s² of residual (the middle of the record: 0.018); the unit test
+//! `a_strong_line_is_removed_up_to_the_ends` checks it on another realisation.
 //!
 //! Burg's method keeps every reflection coefficient inside the unit circle, so the predictor is
 //! stable and its continuation decays rather than grows, whatever the data.

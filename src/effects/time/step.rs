@@ -321,8 +321,8 @@ fn lane_max(ahead: &[f64], here: &[f64], behind: &[f64]) -> f64 {
 /// scan's jump. A footstep or a door slam on a desk (a damped 10–40 Hz ring of 5–50 mg for
 /// 0.2–1 s) moves the mean of 40-ms windows by as much as a step does, and the scan reads it
 /// as a jump; removing a jump that never lasted adds a level shift to the whole rest of the
-/// record, which the random walk then takes up (K read 16× its truth, with a ±10 % interval,
-/// on a lab accelerometer). The guard is max(4 windows, 2 s), past the ring; the long windows
+/// record, which the random walk then takes up (K read 16× its truth, with an interval of
+/// −4 %/+15 %, on a lab accelerometer). The guard is max(4 windows, 2 s), past the ring; the long windows
 /// max(16 windows, 10 s), or as long as the record allows on the shorter side.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Persistence {
@@ -456,8 +456,8 @@ mod tests {
 
     /// A knock (a ring at 38 Hz, 40 white σ, decaying over 0.25 s) that the scan reads as a
     /// significant jump (in each of the 6 records of the three noise profiles here; at least 5
-    /// asked) does not last: the means 10 s either side, 2 s away, refute it. A planted step (20 B, as in
-    /// `planted_step_is_found`) lasts in every record.
+    /// asked) does not last: the means 10 s either side, 2 s away, refute it. A planted step
+    /// (20 B, as in `planted_step_is_found`) lasts in every record.
     #[test]
     fn a_knock_does_not_last_and_a_step_does() {
         let mut read_as_jumps = 0;
